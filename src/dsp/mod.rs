@@ -1,0 +1,17 @@
+//! Digital signal processing: one file per algorithm, each a set of pure functions on `&[f64]`
+//! with its reference named in its doc comment.
+
+pub mod drs;
+pub mod envelope;
+pub mod error;
+pub mod fft;
+pub mod normalise;
+pub mod remez;
+pub mod scf;
+pub mod spectrum;
+pub mod stsa;
+pub mod welch;
+pub mod window;
+
+pub use error::DspError;
+pub use window::Window;

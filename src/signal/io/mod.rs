@@ -1,0 +1,1 @@
+//! File input/output (in progress).
