@@ -4,6 +4,7 @@
 //! and the machine metadata known for it. [`io`] reads and writes it.
 
 pub mod io;
+pub mod synth;
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
