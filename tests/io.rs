@@ -548,6 +548,9 @@ fn csv_bad_cells_and_time_columns() {
     let (_, m) = err(read("t,x\n0,1\n0.1,2\n0.25,3\n0.3,4\n", &o));
     assert!(m.starts_with("data.csv line 4, column 1: time column `t` is not uniformly spaced"), "{m}");
     assert!(m.contains("pass fs_hz"), "{m}");
+    let info = io::csv::inspect_bytes(b"t,x\n0,1\n0.1,2\n0.25,3\n0.3,4\n", "data.csv").expect("inspect lists anyway");
+    assert_eq!(info.channels[0].fs_hz, None);
+    assert!(info.notes.iter().any(|n| n.contains("line 4") && n.contains("not uniformly spaced")), "{:?}", info.notes);
     // Given fs, the time column is not checked.
     assert_eq!(read("t,x\n0,1\n0.1,2\n0.25,3\n0.3,4\n", &opts_fs(10.0)).expect("fs").samples, [1.0, 2.0, 3.0, 4.0]);
     let (_, m) = err(read("t,x\n0,1\n0,2\n", &o));

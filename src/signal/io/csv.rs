@@ -132,6 +132,18 @@ fn comment_meta(rest: &str, file: &str, line: usize) -> Result<Option<Sidecar>, 
     }
 }
 
+fn delim_name(delim: char) -> &'static str {
+    match delim {
+        '\t' => "tab",
+        ';' => "`;`",
+        _ => "`,`",
+    }
+}
+
+fn count_err(file: &str, line: usize, delim: char, ncols: usize, first_line: usize, found: usize) -> IoError {
+    line_err(file, line, 0, format!("expected {ncols} {}-separated columns (as on line {first_line}), found {found}", delim_name(delim)))
+}
+
 fn parse_table(text: &str, file: &str) -> Result<Table, IoError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     if text.is_empty() {
@@ -184,19 +196,21 @@ fn parse_table(text: &str, file: &str) -> Result<Table, IoError> {
             row_lines.push(lineno);
             continue;
         }
+        if !line.contains('"') {
+            // Fast path: no quoting, no per-cell allocation.
+            let found = line.matches(delim).count() + 1;
+            if found != ncols {
+                return Err(count_err(file, lineno, delim, ncols, first_line, found));
+            }
+            for (j, c) in line.split(delim).enumerate() {
+                columns[j].push(parse_cell(c.trim(), file, lineno, j + 1)?);
+            }
+            row_lines.push(lineno);
+            continue;
+        }
         let cells = split_line(line, delim, file, lineno)?;
         if cells.len() != ncols {
-            let sep = match delim {
-                '\t' => "tab",
-                ';' => "`;`",
-                _ => "`,`",
-            };
-            return Err(line_err(
-                file,
-                lineno,
-                0,
-                format!("expected {ncols} {sep}-separated columns (as on line {first_line}), found {}", cells.len()),
-            ));
+            return Err(count_err(file, lineno, delim, ncols, first_line, cells.len()));
         }
         for (j, (c, _)) in cells.iter().enumerate() {
             columns[j].push(parse_cell(c, file, lineno, j + 1)?);
@@ -224,13 +238,9 @@ pub fn is_time_name(name: &str) -> bool {
 
 fn time_column(t: &Table, opts_fs: Option<f64>) -> Option<usize> {
     let ncols = t.columns.len();
-    if ncols >= 2 && t.has_header && is_time_name(&t.names[0]) {
-        Some(0)
-    } else if ncols == 2 && opts_fs.is_none() {
-        Some(0)
-    } else {
-        None
-    }
+    let named_time = ncols >= 2 && t.has_header && is_time_name(&t.names[0]);
+    let two_columns_no_fs = ncols == 2 && opts_fs.is_none();
+    (named_time || two_columns_no_fs).then_some(0)
 }
 
 fn select_channel(t: &Table, file: &str, opts: &LoadOptions, time: Option<usize>) -> Result<usize, IoError> {
@@ -387,8 +397,14 @@ pub fn inspect_bytes(bytes: &[u8], file: &str) -> Result<FileInfo, IoError> {
     let text = decode(bytes, file)?;
     let t = parse_table(text, file)?;
     let time = time_column(&t, None);
-    let fs = match time {
-        Some(c) => Some(fs_from_time(&t, file, c)?),
+    let mut time_problem = None;
+    let fs = match time.map(|c| fs_from_time(&t, file, c)) {
+        Some(Ok(fs)) => Some(fs),
+        // Listing still works; `load` reports the same problem unless fs_hz is given.
+        Some(Err(e)) => {
+            time_problem = Some(e.to_string());
+            None
+        }
         None => t.meta.as_ref().and_then(|(_, m)| m.fs_hz),
     };
     let n = t.row_lines.len();
@@ -401,12 +417,10 @@ pub fn inspect_bytes(bytes: &[u8], file: &str) -> Result<FileInfo, IoError> {
             ChannelInfo::new(if t.has_header { t.names[j].clone() } else { j.to_string() }, fs, n, u)
         })
         .collect();
-    let delim = match t.delim {
-        '\t' => "tab",
-        ';' => "`;`",
-        _ => "`,`",
-    };
-    let mut notes = vec![format!("{delim}-delimited, {}", if t.has_header { "with header" } else { "no header" })];
+    let mut notes = vec![format!("{}-delimited, {}", delim_name(t.delim), if t.has_header { "with header" } else { "no header" })];
+    if let Some(p) = time_problem {
+        notes.push(format!("no rate from the time column: {p}"));
+    }
     match time {
         Some(c) => notes.push(format!("time column `{}` (column {})", t.names[c], c)),
         None if fs.is_none() => notes.push("no time column and no rate; pass fs_hz".into()),
