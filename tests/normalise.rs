@@ -1,7 +1,7 @@
 //! Tests of `dsp::normalise`: analytic properties (max |y| = 1, mean 0, std 1), the exact
 //! formula on a small case, and bad input.
 
-use twinscope::dsp::normalise::{normalise, NormaliseParams, Normalisation};
+use twinscope::dsp::normalise::{normalise, Normalisation, NormaliseParams};
 use twinscope::dsp::DspError;
 
 fn mean(y: &[f64]) -> f64 {
@@ -85,7 +85,10 @@ fn bad_input_is_refused() {
     let y = normalise(&[4.2; 10], &NormaliseParams { method: Normalisation::Peak, remove_mean: false }).unwrap();
     assert!(y.iter().all(|&v| v == 1.0));
     // An all-zero record with method None is returned as is.
-    assert_eq!(normalise(&[0.0; 3], &NormaliseParams { method: Normalisation::None, remove_mean: true }).unwrap(), vec![0.0; 3]);
+    assert_eq!(
+        normalise(&[0.0; 3], &NormaliseParams { method: Normalisation::None, remove_mean: true }).unwrap(),
+        vec![0.0; 3]
+    );
 }
 
 #[test]

@@ -422,12 +422,18 @@ fn build_output(x: &[f64], plan: &Plan, starts: &[usize], average: &[f64], param
             y[from..to].copy_from_slice(&wave[..to - from]);
         }
     };
-    let interval_end = |k: usize| -> usize { if k + 1 < m { starts[k + 1] } else { starts[k] + (plan.interval.round() as usize).min(l) } };
+    let interval_end = |k: usize| -> usize {
+        if k + 1 < m {
+            starts[k + 1]
+        } else {
+            starts[k] + (plan.interval.round() as usize).min(l)
+        }
+    };
 
     let (first_wave, last_wave) = match params.segments_per_average {
         None => {
-            for k in 0..m {
-                write(&mut y, starts[k], interval_end(k), average);
+            for (k, &s) in starts.iter().enumerate() {
+                write(&mut y, s, interval_end(k), average);
             }
             (average.to_vec(), average.to_vec())
         }
