@@ -1,1 +1,189 @@
-fn main() {}
+//! The `twinscope` command line: a thin shell over the library.
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use twinscope::batch::{self, Progress};
+use twinscope::kinematics::{catalogue, lookup_bearing};
+use twinscope::signal::io;
+
+mod bench;
+
+/// twinscope — vibration diagnostics of gearboxes and rolling-element bearings.
+#[derive(Parser, Debug)]
+#[command(name = "twinscope", version, about, long_about = None)]
+struct Cli {
+    /// Run a batch job (TOML) headless: inputs, chain, outputs. See README "Batch jobs".
+    #[arg(long, value_name = "JOB.toml")]
+    batch: Option<PathBuf>,
+    /// Output directory for `--batch` (overrides the job's `output.dir`).
+    #[arg(long, value_name = "DIR", requires = "batch")]
+    out: Option<PathBuf>,
+    /// No progress output on stderr.
+    #[arg(long, short)]
+    quiet: bool,
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// List a file's channels/variables with fs, length, duration and shaft speed.
+    Info {
+        /// A .wav, .csv or .mat file.
+        file: PathBuf,
+    },
+    /// Bearing characteristic frequencies (BPFO, BPFI, BSF, 2xBSF, FTF) at a shaft speed.
+    Kinematics {
+        /// Catalogue bearing (e.g. `6205`, `MB ER-12K`); omit to list the catalogue.
+        #[arg(long)]
+        bearing: Option<String>,
+        /// Shaft speed in rpm.
+        #[arg(long, conflicts_with = "shaft_hz")]
+        rpm: Option<f64>,
+        /// Shaft speed in Hz.
+        #[arg(long)]
+        shaft_hz: Option<f64>,
+    },
+    /// List the bundled chain presets.
+    Presets,
+    /// Time the heavy operations on 10 s of 16384 Hz data (and scipy's, when python3 with
+    /// scipy is available) and print a Markdown table.
+    Bench(bench::BenchArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    if let Err(e) = run(cli) {
+        // One line, naming what was wrong; no backtrace, no panic.
+        let msg = format!("{e:#}").replace('\n', " ");
+        eprintln!("twinscope: error: {msg}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    if let Some(job) = &cli.batch {
+        return run_batch(job, cli.out.as_deref(), cli.quiet);
+    }
+    match cli.command {
+        Some(Command::Info { file }) => info(&file),
+        Some(Command::Kinematics { bearing, rpm, shaft_hz }) => kinematics(bearing, rpm.map(|r| r / 60.0).or(shaft_hz)),
+        Some(Command::Presets) => {
+            for (name, text) in twinscope::chain::PRESETS {
+                let c = twinscope::chain::Chain::from_toml(text, name)?;
+                let stages: Vec<&str> = c.stages.iter().map(|s| s.name.as_str()).collect();
+                println!("{name:15} {}\n{:15} stages: {}", c.description, "", stages.join(" → "));
+            }
+            Ok(())
+        }
+        Some(Command::Bench(args)) => bench::run(&args),
+        None => {
+            eprintln!("twinscope: nothing to do. Try `twinscope --batch sample_data/demo_envelope.toml` or `twinscope --help`.");
+            Ok(())
+        }
+    }
+}
+
+struct CliProgress {
+    bar: Option<indicatif::ProgressBar>,
+    quiet: bool,
+}
+
+impl Progress for CliProgress {
+    fn start(&self, total: usize) {
+        if let Some(b) = &self.bar {
+            b.set_length(total as u64);
+        } else if !self.quiet {
+            eprintln!("twinscope: {total} input(s)");
+        }
+    }
+    fn input_done(&self, done: usize, total: usize, input: &Path, ok: bool) {
+        let status = if ok { "ok" } else { "FAILED" };
+        if let Some(b) = &self.bar {
+            b.set_position(done as u64);
+            b.set_message(format!("{} {status}", input.file_name().map(|f| f.to_string_lossy()).unwrap_or_default()));
+        } else if !self.quiet {
+            eprintln!("twinscope: [{done}/{total}] {} {status}", input.display());
+        }
+    }
+}
+
+fn run_batch(job_path: &Path, out: Option<&Path>, quiet: bool) -> Result<()> {
+    let bar = if !quiet && std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed} {msg}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+        Some(b)
+    } else {
+        None
+    };
+    let progress = CliProgress { bar, quiet };
+    let summary = batch::Job::from_file(job_path).and_then(|mut job| {
+        if let Some(o) = out {
+            job.output.dir = Some(std::path::absolute(o).unwrap_or_else(|_| o.to_path_buf()).display().to_string());
+        }
+        batch::run_job(&job, &progress)
+    });
+    if let Some(b) = &progress.bar {
+        b.finish_and_clear();
+    }
+    let summary = summary?;
+    if !quiet {
+        for i in &summary.inputs {
+            for o in &i.outputs {
+                let top = o.peaks.first().map(|p| {
+                    let label = p.nearest.as_ref().map(|m| if m.within_tolerance { format!(" ≈ {} ({:+.2} %)", line_label(m), m.error_percent) } else { " (no characteristic line within tolerance)".to_string() }).unwrap_or_default();
+                    format!("; top peak {:.2} Hz{label}", p.frequency_hz)
+                });
+                eprintln!("twinscope: {} → {}{}", i.file, o.path, top.unwrap_or_default());
+            }
+        }
+    }
+    Ok(())
+}
+
+fn line_label(m: &twinscope::kinematics::LineMatch) -> String {
+    let h = if m.harmonic == 1 { m.label.clone() } else { format!("{}x{}", m.harmonic, m.label) };
+    match m.sideband {
+        0 => h,
+        s => format!("{h}{s:+}xshaft"),
+    }
+}
+
+fn info(file: &Path) -> Result<()> {
+    let fi = io::inspect(file).with_context(|| format!("reading {}", file.display()))?;
+    println!("file: {}", fi.path.display());
+    println!("format: {:?}", fi.format);
+    if let Some(s) = fi.shaft_speed_hz {
+        println!("shaft speed: {:.4} Hz ({:.1} rpm)", s, s * 60.0);
+    }
+    println!("{:<24} {:>12} {:>10} {:>12} {:>6}", "channel", "fs_hz", "samples", "duration_s", "unit");
+    for c in &fi.channels {
+        let fs = c.fs_hz.map(|f| format!("{f}")).unwrap_or_else(|| "unknown".into());
+        let d = c.duration_s.map(|d| format!("{d:.3}")).unwrap_or_else(|| "-".into());
+        println!("{:<24} {:>12} {:>10} {:>12} {:>6}", c.name, fs, c.len, d, c.unit.clone().unwrap_or_default());
+    }
+    for n in &fi.notes {
+        println!("note: {n}");
+    }
+    Ok(())
+}
+
+fn kinematics(bearing: Option<String>, shaft_hz: Option<f64>) -> Result<()> {
+    let Some(name) = bearing else {
+        println!("{:<20} {:>3} {:>8} {:>8} {:>6} {:>4}  source", "bearing", "n", "d_mm", "D_mm", "phi", "rows");
+        for b in catalogue() {
+            println!("{:<20} {:>3} {:>8.3} {:>8.3} {:>6.1} {:>4}  {}", b.name, b.rolling_elements, b.ball_diameter_mm, b.pitch_diameter_mm, b.contact_angle_deg, b.rows, b.source);
+        }
+        return Ok(());
+    };
+    let b = lookup_bearing(&name)?;
+    let fr = shaft_hz.context("give the shaft speed with --rpm or --shaft-hz")?;
+    let f = b.fault_frequencies(fr)?;
+    println!("{} at {:.4} Hz ({:.1} rpm)", b.name, fr, fr * 60.0);
+    for (label, v) in [("shaft", f.shaft_hz), ("BPFO", f.bpfo_hz), ("BPFI", f.bpfi_hz), ("BSF", f.bsf_hz), ("2xBSF", 2.0 * f.bsf_hz), ("FTF", f.ftf_hz)] {
+        println!("{label:>6} {v:>10.4} Hz  {:>8.5} x shaft", v / fr);
+    }
+    Ok(())
+}

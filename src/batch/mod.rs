@@ -1,1 +1,116 @@
-//! Batch (in progress).
+//! Headless jobs: `twinscope --batch JOB.toml`.
+//!
+//! A job names its inputs (files, directories or globs), the machine (bearing, shaft speed),
+//! a chain (a preset, a chain file or inline stages) and what to write. Inputs run in parallel
+//! (rayon); each requested stage output is written as CSV, and a JSON summary lists inputs,
+//! parameters and the detected peaks labelled with the nearest characteristic frequency.
+//! The format is documented in README.md ("Batch jobs").
+
+mod job;
+mod output;
+
+pub use job::{ChainSpec, InputSpec, Job, MachineSpec, OutputSpec};
+pub use output::{InputSummary, JobSummary, PeakReport};
+
+use crate::chain::{ChainContext, ChainError};
+use crate::signal::io::{self, IoError};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use thiserror::Error;
+
+/// A batch failure. Each message names the job file, input file or parameter at fault.
+#[derive(Debug, Error)]
+pub enum BatchError {
+    /// The job file could not be read or parsed.
+    #[error("job {path}: {message}")]
+    Job { path: String, message: String },
+    /// An input file failed to load.
+    #[error(transparent)]
+    Io(#[from] IoError),
+    /// A chain failed on an input.
+    #[error("{input}: {source}")]
+    Chain { input: String, source: ChainError },
+    /// Writing an output failed.
+    #[error("writing {path}: {message}")]
+    Write { path: String, message: String },
+    /// Some inputs failed; the others were written.
+    #[error("{failed} of {total} inputs failed; first: {first}")]
+    Partial { failed: usize, total: usize, first: String },
+}
+
+/// Progress callbacks (the CLI shows them on stderr).
+pub trait Progress: Sync {
+    /// Called once the input list is known.
+    fn start(&self, total_inputs: usize);
+    /// Called when an input finishes (ok or not).
+    fn input_done(&self, done: usize, total: usize, input: &Path, ok: bool);
+}
+
+/// A progress sink that shows nothing.
+pub struct Silent;
+impl Progress for Silent {
+    fn start(&self, _: usize) {}
+    fn input_done(&self, _: usize, _: usize, _: &Path, _: bool) {}
+}
+
+/// Runs a job file. Relative paths in the job are taken from the job file's directory;
+/// outputs are written under `output.dir`. Returns the job summary (also written as
+/// `summary.json`).
+pub fn run_job_file(path: &Path, progress: &dyn Progress) -> Result<JobSummary, BatchError> {
+    let job = Job::from_file(path)?;
+    run_job(&job, progress)
+}
+
+/// Runs a parsed job.
+pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchError> {
+    let chain = job.chain()?;
+    let inputs = job.expand_inputs()?;
+    let out_dir = job.output_dir();
+    std::fs::create_dir_all(&out_dir).map_err(|e| BatchError::Write { path: out_dir.display().to_string(), message: e.to_string() })?;
+    progress.start(inputs.len());
+    let done = AtomicUsize::new(0);
+    let stems = output::unique_stems(&inputs);
+    let results: Vec<Result<InputSummary, BatchError>> = inputs
+        .par_iter()
+        .zip(stems.par_iter())
+        .map(|(input, stem)| {
+            let r = run_one(job, &chain, input, &out_dir.join(stem));
+            let d = done.fetch_add(1, Ordering::SeqCst) + 1;
+            progress.input_done(d, inputs.len(), input, r.is_ok());
+            r
+        })
+        .collect();
+    let mut summaries = Vec::new();
+    let mut errors = Vec::new();
+    for r in results {
+        match r {
+            Ok(s) => summaries.push(s),
+            Err(e) => errors.push(e.to_string()),
+        }
+    }
+    let summary = JobSummary {
+        job: job.name.clone(),
+        job_file: job.path.as_ref().map(|p| p.display().to_string()),
+        chain: chain.name.clone(),
+        chain_toml: chain.to_toml(),
+        inputs: summaries,
+        errors: errors.clone(),
+    };
+    output::write_json(&out_dir.join("summary.json"), &summary)?;
+    if let Some(first) = errors.first() {
+        return Err(BatchError::Partial { failed: errors.len(), total: inputs.len(), first: first.clone() });
+    }
+    Ok(summary)
+}
+
+fn run_one(job: &Job, chain: &crate::chain::Chain, input: &PathBuf, dir: &Path) -> Result<InputSummary, BatchError> {
+    let signal = io::load(input, &job.input.load_options())?;
+    let ctx = ChainContext {
+        bearing: job.machine.bearing()?,
+        shaft_speed_hz: job.machine.shaft_speed_hz.or(signal.meta.shaft_speed_hz),
+    };
+    let result = chain.run(&signal, &ctx, |_, _, _| {}).map_err(|source| BatchError::Chain { input: input.display().to_string(), source })?;
+    std::fs::create_dir_all(dir).map_err(|e| BatchError::Write { path: dir.display().to_string(), message: e.to_string() })?;
+    output::write_input(job, &signal, &ctx, &result, dir)
+}

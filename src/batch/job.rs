@@ -1,0 +1,257 @@
+//! The batch job file (TOML).
+
+use super::BatchError;
+use crate::chain::{self, Chain};
+use crate::kinematics::{lookup_bearing, BearingGeometry};
+use crate::signal::io::LoadOptions;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A batch job. See README.md, "Batch jobs".
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Job {
+    /// Job name (default: the file stem).
+    #[serde(default)]
+    pub name: String,
+    /// What to read.
+    pub input: InputSpec,
+    /// Machine knowledge (bearing, shaft speed).
+    #[serde(default)]
+    pub machine: MachineSpec,
+    /// The chain to run.
+    pub chain: ChainSpec,
+    /// What to write.
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// The job file (set when read from disk); relative paths are taken from its directory.
+    #[serde(skip)]
+    pub path: Option<PathBuf>,
+}
+
+/// Inputs: files, directories (every .wav/.csv/.mat inside) or glob patterns.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputSpec {
+    /// Paths, directories or globs, relative to the job file.
+    pub paths: Vec<String>,
+    /// Channel or variable (see `twinscope info`).
+    #[serde(default)]
+    pub channel: Option<String>,
+    /// Sampling rate override in Hz.
+    #[serde(default)]
+    pub fs_hz: Option<f64>,
+    /// Physical unit override.
+    #[serde(default)]
+    pub unit: Option<String>,
+}
+
+impl InputSpec {
+    /// Loader options for every input.
+    pub fn load_options(&self) -> LoadOptions {
+        LoadOptions { channel: self.channel.clone(), fs_hz: self.fs_hz, unit: self.unit.clone() }
+    }
+}
+
+/// Machine knowledge used for fault intervals and peak labels.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineSpec {
+    /// A catalogue bearing name (e.g. `SKF 6205-2RS JEM`, or a unique part such as `6205`).
+    #[serde(default)]
+    pub bearing: Option<String>,
+    /// An explicit bearing geometry instead of a catalogue name.
+    #[serde(default)]
+    pub bearing_geometry: Option<BearingGeometry>,
+    /// Shaft speed in Hz; default: from the file (e.g. CWRU `XNNNRPM`).
+    #[serde(default)]
+    pub shaft_speed_hz: Option<f64>,
+}
+
+impl MachineSpec {
+    /// The bearing, from the catalogue or the explicit geometry.
+    pub fn bearing(&self) -> Result<Option<BearingGeometry>, BatchError> {
+        let bad = |m: String| BatchError::Job { path: "machine".into(), message: m };
+        match (&self.bearing, &self.bearing_geometry) {
+            (Some(_), Some(_)) => Err(bad("give either `bearing` or `bearing_geometry`, not both".into())),
+            (Some(name), None) => lookup_bearing(name).map(Some).map_err(|e| bad(format!("`bearing`: {e}"))),
+            (None, Some(g)) => {
+                g.validate().map_err(|e| bad(format!("`bearing_geometry`: {e}")))?;
+                Ok(Some(g.clone()))
+            }
+            (None, None) => Ok(None),
+        }
+    }
+}
+
+/// The chain: a bundled preset, a chain file, or inline `[[chain.stage]]` entries.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct ChainSpec {
+    /// A bundled preset (`envelope`, `envelope_cwru`, `drs_scf`, `welch`).
+    #[serde(default)]
+    pub preset: Option<String>,
+    /// A chain TOML file, relative to the job file.
+    #[serde(default)]
+    pub file: Option<String>,
+    /// Sets the fault interval of every `stsa` stage (`bpfo`, `bpfi`, `bsf`, `2xbsf`, `ftf`,
+    /// `shaft`, or Hz), so one preset serves every fault hypothesis.
+    #[serde(default)]
+    pub fault: Option<chain::FaultRef>,
+    /// Inline chain: every other key (`name`, `[[chain.stage]]`).
+    #[serde(flatten)]
+    pub inline: toml::Table,
+}
+
+/// Outputs.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OutputSpec {
+    /// Output directory, relative to the job file. Default `out/<job name>`.
+    pub dir: Option<String>,
+    /// Stage outputs to write as CSV (stage names, `stage:extra`, or `all`). Default: the last.
+    pub stages: Vec<String>,
+    /// Peaks to report per spectrum in the JSON summary. Default 10.
+    pub peaks: usize,
+    /// Minimum spacing between reported peaks, Hz. Default 1.0.
+    pub peak_min_separation_hz: f64,
+    /// Harmonics searched when labelling a peak. Default 10.
+    pub max_harmonic: u32,
+    /// Shaft-speed sidebands searched when labelling a peak. Default 2.
+    pub max_sideband: i32,
+    /// A peak is labelled with a line within this relative distance, %. Default 1.0.
+    pub label_tolerance_percent: f64,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self { dir: None, stages: Vec::new(), peaks: 10, peak_min_separation_hz: 1.0, max_harmonic: 10, max_sideband: 2, label_tolerance_percent: 1.0 }
+    }
+}
+
+const INPUT_EXTENSIONS: [&str; 3] = ["wav", "csv", "mat"];
+
+impl Job {
+    /// Reads and checks a job file.
+    pub fn from_file(path: &Path) -> Result<Job, BatchError> {
+        let jerr = |m: String| BatchError::Job { path: path.display().to_string(), message: m };
+        let text = std::fs::read_to_string(path).map_err(|e| jerr(e.to_string()))?;
+        let mut job: Job = toml::from_str(&text).map_err(|e| jerr(e.to_string().trim().replace('\n', " ")))?;
+        if job.name.is_empty() {
+            job.name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "job".into());
+        }
+        job.path = Some(path.to_path_buf());
+        job.check().map_err(jerr)?;
+        Ok(job)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        if self.input.paths.is_empty() {
+            return Err("`input.paths` is empty: name at least one file, directory or glob".into());
+        }
+        if let Some(fs) = self.input.fs_hz {
+            if !(fs.is_finite() && fs > 0.0) {
+                return Err(format!("`input.fs_hz` = {fs}: must be a positive number of Hz"));
+            }
+        }
+        if let Some(s) = self.machine.shaft_speed_hz {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(format!("`machine.shaft_speed_hz` = {s}: must be a positive number of Hz (rpm / 60)"));
+            }
+        }
+        if !(self.output.peak_min_separation_hz.is_finite() && self.output.peak_min_separation_hz >= 0.0) {
+            return Err(format!("`output.peak_min_separation_hz` = {}: must be ≥ 0", self.output.peak_min_separation_hz));
+        }
+        Ok(())
+    }
+
+    fn base_dir(&self) -> PathBuf {
+        self.path.as_ref().and_then(|p| p.parent()).map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
+    }
+
+    /// The chain the job asks for.
+    pub fn chain(&self) -> Result<Chain, BatchError> {
+        let c = &self.chain;
+        let given = c.preset.is_some() as u8 + c.file.is_some() as u8 + (!c.inline.is_empty()) as u8;
+        if let Some(k) = c.inline.keys().find(|k| !matches!(k.as_str(), "stage" | "name" | "description")) {
+            return Err(BatchError::Job { path: self.path_name(), message: format!("unknown key `chain.{k}` (use `preset`, `file`, `fault`, or inline `name`/`description`/`[[chain.stage]]`)") });
+        }
+        let cerr = |m: String| BatchError::Job { path: self.path_name(), message: m };
+        if given != 1 {
+            return Err(cerr("`[chain]` needs exactly one of `preset`, `file`, or inline `[[chain.stage]]` entries".into()));
+        }
+        let chain = if let Some(p) = &c.preset {
+            chain::preset(p)
+        } else if let Some(f) = &c.file {
+            let path = self.base_dir().join(f);
+            let text = std::fs::read_to_string(&path).map_err(|e| cerr(format!("`chain.file` {}: {e}", path.display())))?;
+            Chain::from_toml(&text, &path.display().to_string())
+        } else {
+            Chain::from_table(c.inline.clone(), &format!("{} [chain]", self.path_name()))
+        };
+        let mut chain = chain.map_err(|e| cerr(e.to_string()))?;
+        if let Some(f) = &c.fault {
+            let mut any = false;
+            for st in chain.stages.iter_mut().filter(|s| s.op.kind() == "stsa") {
+                st.fault = Some(f.clone());
+                any = true;
+            }
+            if !any {
+                return Err(cerr(format!("`chain.fault` is set but chain `{}` has no `stsa` stage", chain.name)));
+            }
+        }
+        Ok(chain)
+    }
+
+    fn path_name(&self) -> String {
+        self.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "job".into())
+    }
+
+    /// The output directory.
+    pub fn output_dir(&self) -> PathBuf {
+        match &self.output.dir {
+            Some(d) => self.base_dir().join(d),
+            None => self.base_dir().join("out").join(&self.name),
+        }
+    }
+
+    /// Expands `input.paths` (files, directories, globs) into a sorted list of files.
+    pub fn expand_inputs(&self) -> Result<Vec<PathBuf>, BatchError> {
+        let base = self.base_dir();
+        let ierr = |m: String| BatchError::Job { path: self.path_name(), message: m };
+        let mut out = Vec::new();
+        for p in &self.input.paths {
+            let full = base.join(p);
+            let s = full.to_string_lossy().into_owned();
+            if s.contains(['*', '?', '[']) {
+                let mut hits: Vec<PathBuf> = glob::glob(&s)
+                    .map_err(|e| ierr(format!("`input.paths` pattern `{p}`: {e}")))?
+                    .filter_map(Result::ok)
+                    .filter(|f| f.is_file())
+                    .collect();
+                if hits.is_empty() {
+                    return Err(ierr(format!("`input.paths` pattern `{p}` matches no file")));
+                }
+                hits.sort();
+                out.extend(hits);
+            } else if full.is_dir() {
+                let mut hits: Vec<PathBuf> = std::fs::read_dir(&full)
+                    .map_err(|e| ierr(format!("`input.paths` directory `{p}`: {e}")))?
+                    .filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|f| {
+                        f.is_file() && f.extension().map(|e| INPUT_EXTENSIONS.contains(&e.to_string_lossy().to_ascii_lowercase().as_str())).unwrap_or(false)
+                    })
+                    .collect();
+                if hits.is_empty() {
+                    return Err(ierr(format!("`input.paths` directory `{p}` holds no .wav, .csv or .mat file")));
+                }
+                hits.sort();
+                out.extend(hits);
+            } else if full.is_file() {
+                out.push(full);
+            } else {
+                return Err(ierr(format!("`input.paths`: `{p}` does not exist (looked for {})", full.display())));
+            }
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,165 @@
+//! `twinscope bench`: times the heavy operations on 10 s of 16384 Hz data and, when python3
+//! with numpy/scipy is available, the same operations in scipy on the same input in the same
+//! run. Prints a Markdown table (the one quoted in README.md).
+
+use anyhow::{Context, Result};
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::Instant;
+use twinscope::dsp::{self, scf::ScfParams};
+use twinscope::signal::synth;
+
+/// Options of `twinscope bench`.
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    /// Repetitions per operation (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    repeat: usize,
+    /// Skip the slow averaged cyclic periodogram (the SCF reference).
+    #[arg(long)]
+    skip_slow: bool,
+    /// Do not run the scipy reference even if python3 has scipy.
+    #[arg(long)]
+    no_scipy: bool,
+    /// Python interpreter for the scipy reference.
+    #[arg(long, default_value = "python3")]
+    python: String,
+}
+
+struct Row {
+    name: &'static str,
+    ours_ms: f64,
+    reference: &'static str,
+    reference_key: Option<&'static str>,
+}
+
+fn median_ms(repeat: usize, mut f: impl FnMut() -> Result<()>) -> Result<f64> {
+    let mut t = Vec::with_capacity(repeat);
+    for _ in 0..repeat.max(1) {
+        let s = Instant::now();
+        f()?;
+        t.push(s.elapsed().as_secs_f64() * 1e3);
+    }
+    t.sort_by(|a, b| a.total_cmp(b));
+    Ok(t[t.len() / 2])
+}
+
+/// The benchmark signal: a bearing-like impact train at 107 Hz ringing a 3 kHz resonance, a
+/// gear-like tone set, and white noise; 10 s at 16384 Hz, seed 42.
+pub fn bench_signal() -> (Vec<f64>, f64) {
+    let fs = 16384.0;
+    let n = 163_840;
+    let p = synth::ImpactTrain {
+        fault_frequency_hz: 107.0,
+        resonance_hz: 3000.0,
+        damping_ratio: 0.05,
+        jitter_fraction: 0.01,
+        modulation_depth: 0.5,
+        modulation_hz: 15.0,
+        amplitude: 1.0,
+    };
+    let mut x = synth::impact_train(n, fs, &p, 42);
+    let noise = synth::white_noise(n, 0.3, 43);
+    let gear = synth::tone(n, fs, 270.0, 0.5, 0.3);
+    for i in 0..n {
+        x[i] += noise[i] + gear[i];
+    }
+    (x, fs)
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let (x, fs) = bench_signal();
+    let r = args.repeat;
+    let mut rows = Vec::new();
+    eprintln!("twinscope bench: 10 s at {fs} Hz ({} samples), median of {r} runs, {} threads", x.len(), rayon::current_num_threads());
+
+    let welch = dsp::welch::WelchParams { nperseg: 4096, ..Default::default() };
+    rows.push(Row { name: "Welch PSD (nperseg 4096, hann, 50 %)", ours_ms: median_ms(r, || Ok(dsp::welch::welch_psd(&x, fs, &welch).map(|_| ())?))?, reference: "scipy.signal.welch", reference_key: Some("welch") });
+    rows.push(Row { name: "Hilbert envelope |analytic signal|", ours_ms: median_ms(r, || Ok(dsp::envelope::envelope(&x).map(|_| ())?))?, reference: "abs(scipy.signal.hilbert)", reference_key: Some("hilbert") });
+
+    let spec = dsp::remez::BandpassSpec::default();
+    let design = dsp::remez::design_bandpass(&spec, fs)?;
+    let bands = spec.bands_hz(fs);
+    let weights = spec.weights();
+    let numtaps = design.numtaps;
+    rows.push(Row {
+        name: "remez, seed bandpass at its final order",
+        ours_ms: median_ms(r, || Ok(dsp::remez::remez(numtaps, &bands, &[0.0, 1.0, 0.0], &weights, fs).map(|_| ())?))?,
+        reference: "scipy.signal.remez (maxiter=250)",
+        reference_key: Some("remez"),
+    });
+    rows.push(Row {
+        name: "equiripple design loop (estimate → grow until spec met)",
+        ours_ms: median_ms(r, || Ok(dsp::remez::design_bandpass(&spec, fs).map(|_| ())?))?,
+        reference: "-",
+        reference_key: None,
+    });
+    rows.push(Row {
+        name: "zero-phase FIR filtering (filtfilt)",
+        ours_ms: median_ms(r, || Ok(dsp::remez::filtfilt_fir(&design.taps, &x).map(|_| ())?))?,
+        reference: "scipy.signal.filtfilt(b, 1)",
+        reference_key: Some("filtfilt"),
+    });
+    let drs = dsp::drs::DrsParams::default();
+    rows.push(Row { name: "DRS (defaults)", ours_ms: median_ms(r, || Ok(dsp::drs::drs(&x, fs, &drs).map(|_| ())?))?, reference: "-", reference_key: None });
+    let stsa = dsp::stsa::StsaParams { fault_frequency_hz: 107.0, ..Default::default() };
+    rows.push(Row { name: "STSA at 107 Hz", ours_ms: median_ms(r, || Ok(dsp::stsa::stsa(&x, fs, &stsa).map(|_| ())?))?, reference: "-", reference_key: None });
+
+    let scf_fast = ScfParams { alpha_min_hz: 0.0, alpha_max_hz: 500.0, ..Default::default() };
+    let fast_ms = median_ms(r, || Ok(dsp::scf::fast_scf(&x, fs, &scf_fast).map(|_| ())?))?;
+    rows.push(Row { name: "fast SCF, α 0–500 Hz (defaults)", ours_ms: fast_ms, reference: "-", reference_key: None });
+    let mut slow_ms = None;
+    if !args.skip_slow {
+        let ms = median_ms(1, || Ok(dsp::scf::cyclic_periodogram(&x, fs, &scf_fast).map(|_| ())?))?;
+        slow_ms = Some(ms);
+        rows.push(Row { name: "averaged cyclic periodogram (SCF reference), same grid", ours_ms: ms, reference: "-", reference_key: None });
+    }
+
+    let scipy = if args.no_scipy { None } else { run_scipy(&args.python, &x, fs, &design.taps, &bands, &weights, r) };
+
+    println!("| operation | twinscope (ms) | reference | reference (ms) | speed-up |");
+    println!("|---|---:|---|---:|---:|");
+    for row in &rows {
+        let reference_ms = row.reference_key.and_then(|k| scipy.as_ref().and_then(|s| s.get(k)).and_then(|v| v.as_f64()));
+        let (rms, sp) = match reference_ms {
+            Some(v) => (format!("{v:.2}"), format!("{:.1}×", v / row.ours_ms)),
+            None if row.reference_key.is_some() => ("(scipy not run)".into(), "-".into()),
+            None => ("-".into(), "-".into()),
+        };
+        println!("| {} | {:.2} | {} | {} | {} |", row.name, row.ours_ms, row.reference, rms, sp);
+    }
+    if let Some(s) = slow_ms {
+        println!("\nfast SCF vs averaged cyclic periodogram: {:.1}× faster", s / fast_ms);
+    }
+    if let Some(v) = scipy.as_ref().and_then(|s| s.get("versions")) {
+        println!("reference versions: {v}");
+    }
+    Ok(())
+}
+
+fn run_scipy(python: &str, x: &[f64], fs: f64, taps: &[f64], bands: &[(f64, f64)], weights: &[f64], repeat: usize) -> Option<serde_json::Value> {
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("benches/scipy_reference.py");
+    let dir = std::env::temp_dir().join(format!("twinscope-bench-{}", std::process::id()));
+    let go = || -> Result<serde_json::Value> {
+        std::fs::create_dir_all(&dir)?;
+        let to_bytes = |v: &[f64]| v.iter().flat_map(|f| f.to_le_bytes()).collect::<Vec<u8>>();
+        std::fs::write(dir.join("x.f64"), to_bytes(x))?;
+        std::fs::write(dir.join("taps.f64"), to_bytes(taps))?;
+        let spec = serde_json::json!({ "fs": fs, "bands": bands, "weights": weights, "numtaps": taps.len(), "repeat": repeat });
+        std::fs::write(dir.join("spec.json"), spec.to_string())?;
+        let out = Command::new(python).arg(&script).arg(&dir).output().with_context(|| format!("running {python}"))?;
+        if !out.status.success() {
+            anyhow::bail!("{}", String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("scipy reference failed"));
+        }
+        Ok(serde_json::from_slice(&out.stdout)?)
+    };
+    let r = go();
+    let _ = std::fs::remove_dir_all(&dir);
+    match r {
+        Ok(v) => Some(v),
+        Err(e) => {
+            eprintln!("twinscope bench: scipy reference not run ({e:#}); install numpy and scipy for python3 to compare");
+            None
+        }
+    }
+}

@@ -1,0 +1,133 @@
+//! The command line: every bad input gives a one-line error naming the file or parameter, a
+//! non-zero exit and no panic; good jobs write CSV and JSON.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_twinscope"))
+}
+
+fn cwru(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/cwru").join(name)
+}
+
+struct Run {
+    code: i32,
+    stderr: String,
+    stdout: String,
+}
+
+fn run(args: &[&str]) -> Run {
+    let o = bin().args(args).output().expect("binary runs");
+    Run { code: o.status.code().unwrap_or(-1), stderr: String::from_utf8_lossy(&o.stderr).into_owned(), stdout: String::from_utf8_lossy(&o.stdout).into_owned() }
+}
+
+/// Asserts a clean failure: non-zero exit, no panic, one error line that contains `needles`.
+fn assert_clean_failure(r: &Run, needles: &[&str]) {
+    assert_ne!(r.code, 0, "expected failure; stderr: {}", r.stderr);
+    assert!(!r.stderr.contains("panicked"), "panic: {}", r.stderr);
+    let err_lines: Vec<&str> = r.stderr.lines().filter(|l| l.contains("error")).collect();
+    assert_eq!(err_lines.len(), 1, "one error line expected: {}", r.stderr);
+    for n in needles {
+        assert!(err_lines[0].contains(n), "`{n}` missing from: {}", err_lines[0]);
+    }
+}
+
+fn write_job(dir: &Path, input: &Path, chain: &str) -> PathBuf {
+    let job = format!(
+        "[input]\npaths = [{:?}]\n[machine]\nbearing = \"6205\"\nshaft_speed_hz = 29.95\n[chain]\n{chain}\n[output]\ndir = \"out\"\n",
+        input.display().to_string()
+    );
+    let p = dir.join("job.toml");
+    std::fs::write(&p, job).unwrap();
+    p
+}
+
+#[test]
+fn info_lists_cwru_variables() {
+    let r = run(&["info", cwru("105_de_inner_007_0hp_12k.mat").to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("X105_DE_time") && r.stdout.contains("12000"), "{}", r.stdout);
+    assert!(r.stdout.contains("1797"), "shaft speed missing: {}", r.stdout);
+}
+
+#[test]
+fn kinematics_prints_cwru_ratios() {
+    let r = run(&["kinematics", "--bearing", "6205", "--rpm", "1797"]);
+    assert_eq!(r.code, 0);
+    assert!(r.stdout.contains("5.415") && r.stdout.contains("3.584"), "{}", r.stdout);
+}
+
+#[test]
+fn bad_files_fail_cleanly() {
+    let d = tempfile::tempdir().unwrap();
+    let corrupt = d.path().join("corrupt.wav");
+    std::fs::write(&corrupt, b"RIFF\x10\x00\x00\x00WAVEjunkjunkjunk").unwrap();
+    assert_clean_failure(&run(&["info", corrupt.to_str().unwrap()]), &["corrupt.wav"]);
+
+    let mat = std::fs::read(cwru("130_de_outer6_007_0hp_12k.mat")).unwrap();
+    let trunc = d.path().join("trunc_12k.mat");
+    std::fs::write(&trunc, &mat[..2000]).unwrap();
+    let job = write_job(d.path(), &trunc, "preset = \"welch\"");
+    assert_clean_failure(&run(&["--batch", job.to_str().unwrap(), "-q"]), &["trunc_12k.mat"]);
+
+    let empty = d.path().join("empty.csv");
+    std::fs::write(&empty, b"").unwrap();
+    assert_clean_failure(&run(&["info", empty.to_str().unwrap()]), &["empty.csv"]);
+
+    let text = d.path().join("text.csv");
+    std::fs::write(&text, "time_s,x\n0,1\n0.001,abc\n").unwrap();
+    assert_clean_failure(&run(&["info", text.to_str().unwrap()]), &["text.csv", "abc"]);
+
+    let nan = d.path().join("nan.csv");
+    std::fs::write(&nan, "time_s,x\n0,1\n0.001,NaN\n0.002,3\n").unwrap();
+    let job = write_job(d.path(), &nan, "preset = \"welch\"");
+    assert_clean_failure(&run(&["--batch", job.to_str().unwrap(), "-q"]), &["nan.csv"]);
+
+    assert_clean_failure(&run(&["--batch", d.path().join("missing.toml").to_str().unwrap()]), &["missing.toml"]);
+}
+
+#[test]
+fn bad_parameters_fail_cleanly() {
+    let d = tempfile::tempdir().unwrap();
+    let input = cwru("105_de_inner_007_0hp_12k.mat");
+    // A band above Nyquist (fs = 12 kHz).
+    let job = write_job(d.path(), &input, "[[chain.stage]]\nkind = \"bandpass\"\npass_band_hz = [5000.0, 7000.0]");
+    assert_clean_failure(&run(&["--batch", job.to_str().unwrap(), "-q"]), &["105_de_inner", "bandpass"]);
+    // An STSA interval longer than the record.
+    let job = write_job(d.path(), &input, "[[chain.stage]]\nkind = \"stsa\"\nfault = 0.01");
+    assert_clean_failure(&run(&["--batch", job.to_str().unwrap(), "-q"]), &["stsa", "fault_frequency_hz"]);
+    // An unknown stage and an unknown parameter.
+    let job = write_job(d.path(), &input, "[[chain.stage]]\nkind = \"wavelet\"");
+    assert_clean_failure(&run(&["--batch", job.to_str().unwrap(), "-q"]), &["job.toml", "wavelet"]);
+    let job = write_job(d.path(), &input, "[[chain.stage]]\nkind = \"welch\"\nnperseg = 4096\nwindw = \"hann\"");
+    assert_clean_failure(&run(&["--batch", job.to_str().unwrap(), "-q"]), &["job.toml", "windw"]);
+    // A job key that does not exist.
+    std::fs::write(d.path().join("j2.toml"), "[input]\npaths = [\"x.wav\"]\nchanel = \"0\"\n[chain]\npreset = \"welch\"\n").unwrap();
+    assert_clean_failure(&run(&["--batch", d.path().join("j2.toml").to_str().unwrap()]), &["j2.toml", "chanel"]);
+}
+
+#[test]
+fn sample_jobs_run_and_write_csv_and_json() {
+    let samples = Path::new(env!("CARGO_MANIFEST_DIR")).join("sample_data");
+    let mut jobs: Vec<PathBuf> = std::fs::read_dir(&samples).unwrap().filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "toml")).collect();
+    jobs.sort();
+    assert!(jobs.len() >= 3, "sample jobs: {jobs:?}");
+    for job in jobs {
+        let out = tempfile::tempdir().unwrap();
+        let r = run(&["--batch", job.to_str().unwrap(), "--out", out.path().to_str().unwrap()]);
+        assert_eq!(r.code, 0, "{}: {}", job.display(), r.stderr);
+        let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+        let inputs = summary["inputs"].as_array().unwrap();
+        assert!(!inputs.is_empty());
+        for i in inputs {
+            for o in i["outputs"].as_array().unwrap() {
+                let csv = std::fs::read_to_string(o["path"].as_str().unwrap()).unwrap();
+                let header = csv.lines().next().unwrap();
+                assert!(header.starts_with("frequency_hz,") || header.starts_with("time_s,") || header.starts_with("alpha_hz,frequency_hz,") || header == "tap_index,coefficient", "{header}");
+                assert!(csv.lines().count() > 10);
+            }
+        }
+    }
+}
