@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy
+import scipy.io
 import scipy.signal as ss
 
 
@@ -34,6 +35,7 @@ def main():
         "hilbert": median_ms(lambda: np.abs(ss.hilbert(x)), r),
         "remez": median_ms(lambda: ss.remez(spec["numtaps"], bands, [0, 1, 0], weight=spec["weights"], fs=fs, maxiter=250), r),
         "filtfilt": median_ms(lambda: ss.filtfilt(taps, [1.0], x), r),
+        "loadmat": median_ms(lambda: scipy.io.loadmat(spec["mat"]), r),
         "versions": f"numpy {np.__version__}, scipy {scipy.__version__}, python {sys.version.split()[0]}",
     }
     print(json.dumps(out))

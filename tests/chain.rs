@@ -116,3 +116,59 @@ fn drs_then_scf_runs_on_the_residual() {
     let Some(Data::Scf(m)) = r.get("scf") else { panic!("no scf") };
     assert!(m.alpha_hz.last().copied().unwrap() <= 500.0 + m.alpha_resolution_hz);
 }
+
+#[test]
+fn scf_stage_gives_enhanced_envelope_spectrum_and_alpha_slices() {
+    let (s, ctx) = mfs_outer_race(2.0);
+    let bpfo = ctx.fault_frequencies().unwrap().bpfo_hz;
+    // DRS first (Sawalhi et al.): the strong gear tone at 109.9 Hz is itself cyclostationary at
+    // α = 2 × 109.9 Hz and would dominate the enhanced envelope spectrum of the raw signal.
+    let c = Chain::from_toml("[[stage]]\nkind = \"drs\"\n[[stage]]\nkind = \"scf\"\nalpha_max_hz = 300.0\nnperseg = 256\n", "t").unwrap();
+    let r = c.run(&s, &ctx, |_, _, _| {}).unwrap();
+    for extra in ["ees", "ees_coherence", "alpha_0", "alpha_shaft", "alpha_bpfo", "alpha_bpfi", "alpha_2xbsf", "alpha_ftf"] {
+        assert!(matches!(r.get(&format!("scf:{extra}")), Some(Data::Spectrum(_))), "missing scf:{extra}");
+    }
+    // With α up to 60 Hz, BPFI (74.2 Hz at 15 Hz shaft) is outside the map: no slice for it.
+    let narrow = Chain::from_toml("[[stage]]\nkind = \"scf\"\nalpha_max_hz = 60.0\nnperseg = 256\n", "t").unwrap();
+    let rn = narrow.run(&s, &ctx, |_, _, _| {}).unwrap();
+    assert!(rn.get("scf:alpha_bpfo").is_some() && rn.get("scf:alpha_bpfi").is_none());
+    // The α = BPFO slice shows where the impacts put their energy: the 1300 Hz resonance.
+    let Some(Data::Spectrum(sl)) = r.get("scf:alpha_bpfo") else { unreachable!() };
+    let (f, _) = sl.peak().unwrap();
+    assert!((f - 1300.0).abs() <= 2.0 * 64.0, "α = BPFO slice peaks at {f} Hz, resonance 1300 Hz");
+    // ... and the enhanced envelope spectrum over that band peaks on a BPFO harmonic (k ≤ 3:
+    // a sharp impulse train puts comparable energy in its first harmonics).
+    let Some(Data::Scf(map)) = r.get("scf") else { unreachable!() };
+    let (a, v) = map.enhanced_envelope_spectrum_in_band(1000.0, 1600.0).unwrap();
+    let (ia, _) = a.iter().zip(&v).enumerate().filter(|(_, (a, _))| **a > 5.0).max_by(|x, y| (x.1).1.total_cmp((y.1).1)).map(|(i, (_, v))| (i, *v)).unwrap();
+    let k = (a[ia] / bpfo).round();
+    assert!((1.0..=3.0).contains(&k) && (a[ia] - k * bpfo).abs() / (k * bpfo) < 0.01, "band EES peak {}, BPFO {bpfo}", a[ia]);
+}
+
+#[test]
+fn integrate_and_decibel_stages() {
+    // 100 Hz acceleration tone of 9.81 m/s² → velocity amplitude 9.81/(2π·100) m/s → in mm/s.
+    let fs = 8192.0;
+    let x = synth::tone(8192, fs, 100.0, 9.81, 0.0);
+    let s = Signal::new(x, fs, "acc", "m/s^2");
+    let c = Chain::from_toml(
+        "[[stage]]\nkind = \"integrate\"\nscale = 1000.0\nunit = \"mm/s\"\n[[stage]]\nkind = \"spectrum\"\nwindow = \"flattop\"\n[[stage]]\nkind = \"decibel\"\nreference = 1e-6\n",
+        "t",
+    )
+    .unwrap();
+    let r = c.run(&s, &ChainContext::default(), |_, _, _| {}).unwrap();
+    let Some(Data::Time(v)) = r.get("integrate") else { panic!() };
+    assert_eq!(v.unit, "mm/s");
+    let Some(Data::Spectrum(sp)) = r.get("spectrum") else { panic!() };
+    let want = 9.81 / (2.0 * std::f64::consts::PI * 100.0) * 1000.0;
+    let (f, a) = sp.peak().unwrap();
+    assert!((f - 100.0).abs() < 0.5 && (a - want).abs() / want < 1e-3, "{f} {a} {want}");
+    let Some(Data::Spectrum(db)) = r.get("decibel") else { panic!() };
+    let k = sp.values.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap().0;
+    assert!((db.values[k] - 20.0 * (sp.values[k] / 1e-6).log10()).abs() < 1e-9);
+    assert!(db.unit.contains("dB re 0.000001") || db.unit.contains("dB re 1e-6"), "{}", db.unit);
+    // decibel on a time signal is refused with the stage named.
+    let bad = Chain::from_toml("[[stage]]\nkind = \"decibel\"\n", "t").unwrap();
+    let e = bad.run(&s, &ChainContext::default(), |_, _, _| {}).unwrap_err().to_string();
+    assert!(e.contains("decibel") && e.contains("spectrum"), "{e}");
+}

@@ -322,7 +322,7 @@ pub enum Quantity {
 
 impl Quantity {
     /// Number of time derivatives of displacement.
-    fn order(self) -> i32 {
+    pub fn order(self) -> i32 {
         match self {
             Quantity::Displacement => 0,
             Quantity::Velocity => 1,
