@@ -2,30 +2,13 @@
 //! a naive synchronous average as the reference, the envelope spectrum as the physical check,
 //! and bad input.
 
+mod common;
+use common::{pearson, Rng};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 use twinscope::dsp::stsa::{stsa, Pad, StsaParams};
 use twinscope::dsp::{fft, DspError};
 
-/// SplitMix64 + Box–Muller: a fixed-seed generator so the tests need no extra crate.
-struct Rng(u64);
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn gauss(&mut self) -> f64 {
-        let u1 = self.uniform().max(1e-300);
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
-    }
-}
 
 /// Decaying resonance `exp(−ζωt) sin(ω_d t)`, `len` samples.
 fn impulse_response(fs: f64, fr: f64, zeta: f64, len: usize) -> Vec<f64> {
@@ -222,14 +205,6 @@ fn peak_search_recovers_slipping_impacts_at_minus_5_db() {
     assert!(atten_db > 10.0);
 }
 
-fn pearson(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len() as f64;
-    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
-    let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
-    let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
-    let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
-    cov / (va * vb).sqrt()
-}
 
 /// Noiseless train, integer interval T = 160 samples, integer slips in [−3, 3] (= ±D): the peak
 /// search must find every slip exactly, the average must be the impulse response and the output
