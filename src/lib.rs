@@ -12,4 +12,5 @@ pub mod batch;
 pub mod chain;
 pub mod dsp;
 pub mod kinematics;
+pub mod model;
 pub mod signal;

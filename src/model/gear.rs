@@ -1,0 +1,168 @@
+//! Gear mesh and periodic-force elements.
+//!
+//! The mesh follows the classic lumped spur-gear model (e.g. Sawalhi & Randall 2008, part I;
+//! the 15-DOF bevel model treats the bevel pair as an equivalent spur pair by Tredgold's
+//! approximation): one spring along the line of action with a time-varying stiffness, acting on
+//! the torsional vibration of both gears and the translation of both shafts along that line.
+
+use super::bearing::ShaftMotion;
+use super::system::ForceElement;
+use std::f64::consts::TAU;
+
+/// Mesh stiffness as a function of the pinion's rotation: alternating single and double tooth
+/// contact, one tooth weakened optionally.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshStiffness {
+    /// Mean stiffness, N/m.
+    pub mean_n_per_m: f64,
+    /// Peak-to-peak variation as a fraction of the mean (0 = constant: `gear_mesh` off).
+    pub variation_fraction: f64,
+    /// Contact ratio in (1, 2).
+    pub contact_ratio: f64,
+    /// Pinion teeth.
+    pub pinion_teeth: u32,
+    /// A weakened pinion tooth: (index, fraction of its pair stiffness lost).
+    pub tooth_fault: Option<(u32, f64)>,
+}
+
+impl MeshStiffness {
+    /// Stiffness at pinion angle `theta` (rad).
+    ///
+    /// # Notes
+    /// Within each mesh period (`2π / z_p` of pinion rotation), a fraction `ε − 1` has two tooth
+    /// pairs in contact (stiffness `k_hi`) and the rest one pair (`k_lo`), with
+    /// `k_hi − k_lo = variation · mean` and a time average equal to `mean`. The transitions are
+    /// smoothed over 5 % of the period (tip relief) so the integrator sees no step. A faulty
+    /// tooth multiplies the stiffness by `1 − loss` while that tooth is in contact (the period
+    /// in which it is the leading tooth, plus the preceding double-contact zone).
+    pub fn at(&self, theta: f64) -> f64 {
+        let z = self.pinion_teeth as f64;
+        let pos = theta.rem_euclid(TAU) / TAU * z; // mesh periods elapsed in this revolution
+        let tooth = pos.floor() as u32 % self.pinion_teeth;
+        let frac = pos - pos.floor();
+        let double = self.contact_ratio - 1.0;
+        let dk = self.variation_fraction * self.mean_n_per_m;
+        let k_lo = self.mean_n_per_m - dk * double;
+        let k_hi = k_lo + dk;
+        let w = 0.05;
+        // Smooth step up at 0 and down at `double`.
+        let up = smoothstep(frac / w + 0.5);
+        let down = smoothstep((frac - double) / w + 0.5);
+        let wrap_down = smoothstep((frac - 1.0) / w + 0.5); // the next period's rise
+        let two = (up - down + wrap_down).clamp(0.0, 1.0);
+        let mut k = k_lo + (k_hi - k_lo) * two;
+        if let Some((bad, loss)) = self.tooth_fault {
+            if tooth == bad {
+                k *= 1.0 - loss;
+            }
+        }
+        k
+    }
+}
+
+fn smoothstep(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// The gear mesh element.
+#[derive(Debug, Clone)]
+pub struct GearMeshElement {
+    /// Name for messages.
+    pub name: String,
+    /// Pinion torsional DOF, gear torsional DOF.
+    pub theta: (usize, usize),
+    /// Pinion shaft and gear shaft translation along the line of action.
+    pub line: (usize, usize),
+    /// Base radii, m.
+    pub base_radius_m: (f64, f64),
+    /// Mesh stiffness law.
+    pub stiffness: MeshStiffness,
+    /// Mesh damping, N·s/m.
+    pub damping_n_s_per_m: f64,
+    /// Pinion rotation (phase of the mesh).
+    pub pinion_motion: ShaftMotion,
+}
+
+impl GearMeshElement {
+    /// Dynamic transmission error along the line of action, m:
+    /// `δ = r_p θ_p − r_g θ_g + y_p − y_g` (torsional vibration angles in each gear's own sense).
+    pub fn deflection(&self, q: &[f64]) -> f64 {
+        self.base_radius_m.0 * q[self.theta.0] - self.base_radius_m.1 * q[self.theta.1] + q[self.line.0] - q[self.line.1]
+    }
+}
+
+impl ForceElement for GearMeshElement {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn add_forces(&self, t: f64, q: &[f64], v: &[f64], f: &mut [f64]) {
+        let d = self.deflection(q);
+        let dd = self.base_radius_m.0 * v[self.theta.0] - self.base_radius_m.1 * v[self.theta.1] + v[self.line.0] - v[self.line.1];
+        let k = self.stiffness.at(self.pinion_motion.angle(t));
+        let force = k * d + self.damping_n_s_per_m * dd;
+        f[self.theta.0] -= force * self.base_radius_m.0;
+        f[self.theta.1] += force * self.base_radius_m.1;
+        f[self.line.0] -= force;
+        f[self.line.1] += force;
+    }
+}
+
+/// A radial force at orders of a shaft's rotation. With two DOFs it rotates:
+/// `F(t) = Σ_k A_k [cos(k θ + φ_k), sin(k θ + φ_k)]` on (x, y); with one it pulsates:
+/// `F(t) = Σ_k A_k cos(k θ + φ_k)`. Orders need not be integers (a belt-pass order).
+#[derive(Debug, Clone)]
+pub struct OrderForce {
+    /// Name for messages.
+    pub name: String,
+    /// x DOF and, for a rotating force, the y DOF.
+    pub dofs: (usize, Option<usize>),
+    /// Shaft rotation.
+    pub motion: ShaftMotion,
+    /// (order, amplitude N, phase rad, scales with speed²?) terms.
+    pub terms: Vec<(f64, f64, f64, bool)>,
+}
+
+impl ForceElement for OrderForce {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn add_forces(&self, t: f64, _q: &[f64], _v: &[f64], f: &mut [f64]) {
+        let theta = self.motion.angle(t);
+        let speed_ratio = self.motion.speed_hz(t) / self.motion.mean_hz;
+        for &(order, amp, phase, quadratic) in &self.terms {
+            let a = if quadratic { amp * speed_ratio * speed_ratio } else { amp };
+            let (s, c) = (order * theta + phase).sin_cos();
+            f[self.dofs.0] += a * c;
+            if let Some(y) = self.dofs.1 {
+                f[y] += a * s;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mesh_stiffness_has_the_mean_and_the_period() {
+        let m = MeshStiffness { mean_n_per_m: 1e8, variation_fraction: 0.3, contact_ratio: 1.6, pinion_teeth: 18, tooth_fault: None };
+        let n = 18 * 2000;
+        let ks: Vec<f64> = (0..n).map(|i| m.at(TAU * i as f64 / n as f64)).collect();
+        let mean = ks.iter().sum::<f64>() / n as f64;
+        assert!((mean - 1e8).abs() / 1e8 < 2e-3, "{mean}");
+        let (lo, hi) = ks.iter().fold((f64::MAX, f64::MIN), |(a, b), &k| (a.min(k), b.max(k)));
+        assert!(((hi - lo) / 1e8 - 0.3).abs() < 1e-3, "{}", (hi - lo) / 1e8);
+        // Periodic at the mesh period.
+        let p = TAU / 18.0;
+        for x in [0.1, 0.2, 0.33] {
+            assert!((m.at(x) - m.at(x + p)).abs() < 1e-6 * 1e8);
+        }
+        let faulty = MeshStiffness { tooth_fault: Some((3, 0.5)), ..m.clone() };
+        assert!((faulty.at(3.5 * p) - 0.5 * m.at(3.5 * p)).abs() < 1.0);
+        assert_eq!(faulty.at(5.5 * p), m.at(5.5 * p));
+    }
+}

@@ -1,0 +1,233 @@
+//! Fixed-step explicit integration (classical RK4 with sub-steps per output sample) and the
+//! measurement post-processing.
+
+use super::assemble::{Model, PostProcessing};
+use super::effects::NoiseColour;
+use super::error::ModelError;
+use crate::dsp::fft;
+use crate::signal::{synth, Signal};
+use num_complex::Complex64;
+use std::f64::consts::{PI, TAU};
+
+/// Why [`Simulator::step`] stopped.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StepResult {
+    /// One output sample was produced (the sensor reading at the start of the interval).
+    Sample(f64),
+    /// The state became non-finite or ran away; the DOF and time are named.
+    Diverged { t_s: f64, dof: String, what: String },
+}
+
+/// Integrates a [`Model`]. Owns only the state and scratch memory.
+pub struct Simulator<'a> {
+    model: &'a Model,
+    /// Time, s.
+    pub t: f64,
+    /// Displacements.
+    pub q: Vec<f64>,
+    /// Velocities.
+    pub v: Vec<f64>,
+    dt: f64,
+    substeps: usize,
+    k: [Vec<f64>; 8],
+    tmp_q: Vec<f64>,
+    tmp_v: Vec<f64>,
+}
+
+/// Displacement beyond which a DOF is taken as run away (a bearing model moves microns).
+const RUNAWAY_M: f64 = 0.05;
+
+impl<'a> Simulator<'a> {
+    /// Starts from the static equilibrium at t = 0 (found by Levenberg–Marquardt), at rest.
+    pub fn new(model: &'a Model) -> Result<Self, ModelError> {
+        let sys = &model.system;
+        let q = sys.static_equilibrium(0.0, &model.q_guess, 1e-6)?;
+        sys.check_supported(&q)?;
+        let n = sys.n();
+        let m = &model.machine;
+        Ok(Self {
+            model,
+            t: 0.0,
+            q,
+            v: vec![0.0; n],
+            dt: 1.0 / (m.fs_hz * m.substeps as f64),
+            substeps: m.substeps,
+            k: std::array::from_fn(|_| vec![0.0; n]),
+            tmp_q: vec![0.0; n],
+            tmp_v: vec![0.0; n],
+        })
+    }
+
+    /// The integrator step, s.
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// Sensor reading at the current state.
+    pub fn sensor(&mut self) -> f64 {
+        let sys = &self.model.system;
+        sys.accelerations(self.t, &self.q, &self.v, &mut self.tmp_v);
+        self.model.sensor.terms.iter().map(|(d, w)| w * self.tmp_v[*d]).sum()
+    }
+
+    /// One RK4 step of `dt`.
+    fn rk4(&mut self) {
+        let sys = &self.model.system;
+        let (h, t) = (self.dt, self.t);
+        let n = self.q.len();
+        let [k1q, k1v, k2q, k2v, k3q, k3v, k4q, k4v] = &mut self.k;
+        k1q.copy_from_slice(&self.v);
+        sys.accelerations(t, &self.q, &self.v, k1v);
+        for i in 0..n {
+            self.tmp_q[i] = self.q[i] + 0.5 * h * k1q[i];
+            self.tmp_v[i] = self.v[i] + 0.5 * h * k1v[i];
+        }
+        k2q.copy_from_slice(&self.tmp_v);
+        sys.accelerations(t + 0.5 * h, &self.tmp_q, &self.tmp_v, k2v);
+        for i in 0..n {
+            self.tmp_q[i] = self.q[i] + 0.5 * h * k2q[i];
+            self.tmp_v[i] = self.v[i] + 0.5 * h * k2v[i];
+        }
+        k3q.copy_from_slice(&self.tmp_v);
+        sys.accelerations(t + 0.5 * h, &self.tmp_q, &self.tmp_v, k3v);
+        for i in 0..n {
+            self.tmp_q[i] = self.q[i] + h * k3q[i];
+            self.tmp_v[i] = self.v[i] + h * k3v[i];
+        }
+        k4q.copy_from_slice(&self.tmp_v);
+        sys.accelerations(t + h, &self.tmp_q, &self.tmp_v, k4v);
+        for i in 0..n {
+            self.q[i] += h / 6.0 * (k1q[i] + 2.0 * k2q[i] + 2.0 * k3q[i] + k4q[i]);
+            self.v[i] += h / 6.0 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i]);
+        }
+        self.t += h;
+    }
+
+    /// Advances one output interval (`substeps` RK4 steps) and returns the sensor reading at its
+    /// start, or the divergence found at its end.
+    pub fn step(&mut self) -> StepResult {
+        let reading = self.sensor();
+        for _ in 0..self.substeps {
+            self.rk4();
+        }
+        if let Some(i) = self.q.iter().zip(&self.v).position(|(q, v)| !q.is_finite() || !v.is_finite() || q.abs() > RUNAWAY_M) {
+            let what = if self.q[i].is_finite() && self.v[i].is_finite() { format!("displacement {:.3e} m beyond {RUNAWAY_M} m", self.q[i]) } else { "non-finite state".to_string() };
+            return StepResult::Diverged { t_s: self.t, dof: self.model.system.dof_names[i].clone(), what };
+        }
+        if !reading.is_finite() {
+            return StepResult::Diverged { t_s: self.t, dof: self.model.machine.sensor.dof.clone(), what: "non-finite sensor reading".into() };
+        }
+        StepResult::Sample(reading)
+    }
+
+    /// Total mechanical energy of the linear springs and masses plus the work-free part of the
+    /// elements is not available in general; this returns the kinetic energy `½ Σ m v²`.
+    pub fn kinetic_energy(&self) -> f64 {
+        0.5 * self.model.system.mass.iter().zip(&self.v).map(|(m, v)| m * v * v).sum::<f64>()
+    }
+}
+
+/// Runs a model: settles for `settle_s`, records `duration_s` of the sensor at `fs_hz`, then
+/// applies the measurement effects. `progress(fraction)` is called about 100 times; returning
+/// `false` cancels. A divergence stops with an error; no NaN is ever returned.
+pub fn run(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Signal, ModelError> {
+    let m = &model.machine;
+    let mut sim = Simulator::new(model)?;
+    let settle = (m.settle_s * m.fs_hz).round() as usize;
+    let n = (m.duration_s * m.fs_hz).round() as usize;
+    let total = settle + n;
+    let every = (total / 100).max(1);
+    let mut out = Vec::with_capacity(n);
+    for i in 0..total {
+        match sim.step() {
+            StepResult::Sample(x) => {
+                if i >= settle {
+                    out.push(x);
+                }
+            }
+            StepResult::Diverged { t_s, dof, what } => return Err(ModelError::Diverged { t_s, dof, what }),
+        }
+        if i % every == 0 && !progress(i as f64 / total as f64) {
+            return Err(ModelError::Cancelled { t_s: sim.t });
+        }
+    }
+    progress(1.0);
+    let y = post_process(&out, m.fs_hz, &model.post, m.seed);
+    let mut s = Signal::new(y, m.fs_hz, format!("{} (simulated)", m.name), m.sensor.unit.clone());
+    s.meta.shaft_speed_hz = model.shaft_speeds_hz.first().copied();
+    s.meta.source = Some(format!("twinscope model `{}`", m.name));
+    s.meta.channel = Some(m.sensor.dof.clone());
+    s.meta.bearing = m.bearings.first().and_then(|b| b.catalogue.clone().or_else(|| b.geometry.as_ref().map(|g| g.name.clone())));
+    let on: Vec<&str> = m.effects.enabled().iter().map(|k| k.name()).collect();
+    s.meta.extra.insert("effects".into(), on.join(","));
+    s.meta.extra.insert("seed".into(), m.seed.to_string());
+    Ok(s)
+}
+
+/// Applies the measurement effects in physical order: accelerometer response, then the
+/// transmission-path modulation, then additive noise.
+pub fn post_process(x: &[f64], fs_hz: f64, post: &PostProcessing, seed: u64) -> Vec<f64> {
+    let mut y = x.to_vec();
+    if let Some((bw, zeta)) = post.sensor_response {
+        y = sensor_lowpass(&y, fs_hz, bw, zeta);
+    }
+    if let Some((depth, f)) = post.path_modulation {
+        for (i, v) in y.iter_mut().enumerate() {
+            *v *= 1.0 + depth * (TAU * f * i as f64 / fs_hz).cos();
+        }
+    }
+    if let Some((snr_db, colour)) = post.noise {
+        let rms = (y.iter().map(|v| v * v).sum::<f64>() / y.len().max(1) as f64).sqrt();
+        let std = rms * 10f64.powf(-snr_db / 20.0);
+        let noise = coloured_noise(y.len(), std, colour, seed.wrapping_add(0x5EED));
+        y.iter_mut().zip(noise).for_each(|(a, b)| *a += b);
+    }
+    y
+}
+
+/// Second-order low-pass `ω²/(s² + 2ζωs + ω²)` discretised by the bilinear transform with
+/// frequency pre-warping at `bandwidth_hz` (a causal biquad, as an accelerometer's roll-off).
+pub fn sensor_lowpass(x: &[f64], fs_hz: f64, bandwidth_hz: f64, zeta: f64) -> Vec<f64> {
+    let wc = (PI * bandwidth_hz.min(0.49 * fs_hz) / fs_hz).tan();
+    let (w2, a1c) = (wc * wc, 2.0 * zeta * wc);
+    let a0 = 1.0 + a1c + w2;
+    let (b0, b1, b2) = (w2 / a0, 2.0 * w2 / a0, w2 / a0);
+    let (a1, a2) = (2.0 * (w2 - 1.0) / a0, (1.0 - a1c + w2) / a0);
+    let (mut x1, mut x2, mut y1, mut y2) = (0.0, 0.0, 0.0, 0.0);
+    x.iter()
+        .map(|&x0| {
+            let y0 = b0 * x0 + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2;
+            x2 = x1;
+            x1 = x0;
+            y2 = y1;
+            y1 = y0;
+            y0
+        })
+        .collect()
+}
+
+/// White or pink (power ∝ 1/f) Gaussian noise with standard deviation `std`, seeded.
+pub fn coloured_noise(n: usize, std: f64, colour: NoiseColour, seed: u64) -> Vec<f64> {
+    let white = synth::white_noise(n, 1.0, seed);
+    let shaped = match colour {
+        NoiseColour::White => white,
+        NoiseColour::Pink => {
+            if n < 4 {
+                white
+            } else {
+                let mut spec: Vec<Complex64> = fft::rfft(&white);
+                spec[0] = Complex64::new(0.0, 0.0);
+                for (k, c) in spec.iter_mut().enumerate().skip(1) {
+                    *c /= (k as f64).sqrt();
+                }
+                fft::irfft(&spec, n)
+            }
+        }
+    };
+    let rms = (shaped.iter().map(|v| v * v).sum::<f64>() / n.max(1) as f64).sqrt();
+    if rms > 0.0 {
+        shaped.into_iter().map(|v| v * std / rms).collect()
+    } else {
+        shaped
+    }
+}

@@ -1,0 +1,214 @@
+//! The assembled system: named degrees of freedom with lumped masses, linear spring–dampers
+//! between them (or to ground), constant external forces, and nonlinear or time-varying force
+//! elements. Components (shafts, bearings, gear meshes, casing modes, a future Craig–Bampton
+//! casing or planetary set) only add DOFs, springs and elements through this interface.
+
+use super::error::ModelError;
+use nalgebra::{DMatrix, DVector};
+
+/// A force element: adds generalised forces for a state. It must be a pure function of
+/// `(t, q, v)` so the integrator can evaluate it at any stage; randomness (slip, roughness) is
+/// drawn at construction from the machine seed.
+pub trait ForceElement: Send + Sync {
+    /// A name for messages (e.g. `bearing test`).
+    fn name(&self) -> &str;
+    /// Adds this element's forces at time `t` (s), displacements `q` (m or rad) and velocities
+    /// `v` to `f` (N or N·m).
+    fn add_forces(&self, t: f64, q: &[f64], v: &[f64], f: &mut [f64]);
+}
+
+/// A linear spring–damper between DOF `a` and DOF `b` (or ground).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spring {
+    /// First DOF.
+    pub a: usize,
+    /// Second DOF, or ground.
+    pub b: Option<usize>,
+    /// Stiffness, N/m (or N·m/rad).
+    pub k: f64,
+    /// Damping, N·s/m (or N·m·s/rad).
+    pub c: f64,
+}
+
+/// DOFs, masses, springs, constant forces and force elements.
+#[derive(Default)]
+pub struct System {
+    /// DOF names, e.g. `motor.y`, `test.pedestal.y`.
+    pub dof_names: Vec<String>,
+    /// Lumped mass (kg) or inertia (kg·m²) of each DOF.
+    pub mass: Vec<f64>,
+    /// Linear spring–dampers.
+    pub springs: Vec<Spring>,
+    /// Constant external force on each DOF (N or N·m).
+    pub static_force: Vec<f64>,
+    /// Nonlinear / time-varying elements.
+    pub elements: Vec<Box<dyn ForceElement>>,
+}
+
+impl System {
+    /// Adds a DOF and returns its index; names must be unique.
+    pub fn add_dof(&mut self, name: impl Into<String>, mass: f64) -> usize {
+        self.dof_names.push(name.into());
+        self.mass.push(mass);
+        self.static_force.push(0.0);
+        self.dof_names.len() - 1
+    }
+
+    /// Index of a DOF by name.
+    pub fn dof(&self, name: &str) -> Option<usize> {
+        self.dof_names.iter().position(|n| n == name)
+    }
+
+    /// Number of DOFs.
+    pub fn n(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// Adds a spring–damper.
+    pub fn add_spring(&mut self, a: usize, b: Option<usize>, k: f64, c: f64) {
+        self.springs.push(Spring { a, b, k, c });
+    }
+
+    /// Total generalised force at a state (external + springs + elements).
+    pub fn forces(&self, t: f64, q: &[f64], v: &[f64], f: &mut [f64]) {
+        f.copy_from_slice(&self.static_force);
+        for s in &self.springs {
+            let (dq, dv) = match s.b {
+                Some(b) => (q[s.a] - q[b], v[s.a] - v[b]),
+                None => (q[s.a], v[s.a]),
+            };
+            let force = s.k * dq + s.c * dv;
+            f[s.a] -= force;
+            if let Some(b) = s.b {
+                f[b] += force;
+            }
+        }
+        for e in &self.elements {
+            e.add_forces(t, q, v, f);
+        }
+    }
+
+    /// Accelerations `a = M⁻¹ F(t, q, v)`.
+    pub fn accelerations(&self, t: f64, q: &[f64], v: &[f64], a: &mut [f64]) {
+        self.forces(t, q, v, a);
+        for (ai, m) in a.iter_mut().zip(&self.mass) {
+            *ai /= m;
+        }
+    }
+
+    /// Linear stiffness matrix of the springs alone.
+    pub fn spring_stiffness(&self) -> DMatrix<f64> {
+        let n = self.n();
+        let mut k = DMatrix::zeros(n, n);
+        for s in &self.springs {
+            k[(s.a, s.a)] += s.k;
+            if let Some(b) = s.b {
+                k[(b, b)] += s.k;
+                k[(s.a, b)] -= s.k;
+                k[(b, s.a)] -= s.k;
+            }
+        }
+        k
+    }
+
+    /// Tangent stiffness `K = −∂F/∂q` at `(t, q)` with `v = 0`, by central differences with a
+    /// step of `h` (m). Symmetrised.
+    pub fn tangent_stiffness(&self, t: f64, q: &[f64], h: f64) -> DMatrix<f64> {
+        let n = self.n();
+        let v = vec![0.0; n];
+        let mut k = DMatrix::zeros(n, n);
+        let mut qp = q.to_vec();
+        let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
+        for j in 0..n {
+            qp[j] = q[j] + h;
+            self.forces(t, &qp, &v, &mut fp);
+            qp[j] = q[j] - h;
+            self.forces(t, &qp, &v, &mut fm);
+            qp[j] = q[j];
+            for i in 0..n {
+                k[(i, j)] = -(fp[i] - fm[i]) / (2.0 * h);
+            }
+        }
+        (&k + k.transpose()) * 0.5
+    }
+
+    /// Undamped natural frequencies (Hz, ascending) of the system linearised at `q`:
+    /// the eigenvalues of `M^{-1/2} K M^{-1/2}`.
+    pub fn natural_frequencies_hz(&self, t: f64, q: &[f64]) -> Vec<f64> {
+        let k = self.tangent_stiffness(t, q, 1e-9);
+        let n = self.n();
+        let s = DVector::from_iterator(n, self.mass.iter().map(|m| 1.0 / m.sqrt()));
+        let a = DMatrix::from_fn(n, n, |i, j| s[i] * k[(i, j)] * s[j]);
+        let eig = a.symmetric_eigen();
+        let mut f: Vec<f64> = eig.eigenvalues.iter().map(|l| l.max(0.0).sqrt() / (2.0 * std::f64::consts::PI)).collect();
+        f.sort_by(|a, b| a.total_cmp(b));
+        f
+    }
+
+    /// Static equilibrium at time `t` (velocities zero) from the guess `q0`, by a
+    /// Levenberg–Marquardt iteration on the force balance. Returns `q` with
+    /// `‖F(q)‖∞ ≤ tol_n` newtons.
+    pub fn static_equilibrium(&self, t: f64, q0: &[f64], tol_n: f64) -> Result<Vec<f64>, ModelError> {
+        let n = self.n();
+        let v = vec![0.0; n];
+        let mut q = q0.to_vec();
+        let mut f = vec![0.0; n];
+        self.forces(t, &q, &v, &mut f);
+        let norm = |f: &[f64]| f.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let mut lambda = 1e-6;
+        for _ in 0..200 {
+            let r = norm(&f);
+            if !r.is_finite() {
+                return Err(ModelError::NoEquilibrium("non-finite force".into()));
+            }
+            if r <= tol_n {
+                return Ok(q);
+            }
+            let k = self.tangent_stiffness(t, &q, 1e-10);
+            let scale = (0..n).map(|i| k[(i, i)].abs()).fold(0.0f64, f64::max).max(1.0);
+            let rhs = DVector::from_column_slice(&f);
+            let mut improved = false;
+            for _ in 0..30 {
+                let a = &k + DMatrix::identity(n, n) * (lambda * scale);
+                let Some(dq) = a.lu().solve(&rhs) else {
+                    lambda *= 10.0;
+                    continue;
+                };
+                let trial: Vec<f64> = q.iter().zip(dq.iter()).map(|(a, b)| a + b).collect();
+                let mut ft = vec![0.0; n];
+                self.forces(t, &trial, &v, &mut ft);
+                if norm(&ft) < r {
+                    q = trial;
+                    f = ft;
+                    lambda = (lambda / 3.0).max(1e-12);
+                    improved = true;
+                    break;
+                }
+                lambda *= 10.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        let worst = f.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).map(|(i, v)| (i, *v)).unwrap_or((0, 0.0));
+        Err(ModelError::NoEquilibrium(format!(
+            "residual {:.3e} N at DOF `{}`; check that every DOF is supported (a bearing or a coupling to ground)",
+            worst.1,
+            self.dof_names.get(worst.0).cloned().unwrap_or_default()
+        )))
+    }
+
+    /// Checks that every DOF has stiffness to something (no free rigid-body motion).
+    pub fn check_supported(&self, q: &[f64]) -> Result<(), ModelError> {
+        let k = self.tangent_stiffness(0.0, q, 1e-9);
+        for i in 0..self.n() {
+            if !(k[(i, i)] > 0.0) {
+                return Err(ModelError::NoEquilibrium(format!(
+                    "DOF `{}` has no stiffness: support it with a bearing or a `[[coupling]]` to ground",
+                    self.dof_names[i]
+                )));
+            }
+        }
+        Ok(())
+    }
+}
