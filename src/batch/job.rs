@@ -29,12 +29,17 @@ pub struct Job {
     pub path: Option<PathBuf>,
 }
 
-/// Inputs: files, directories (every .wav/.csv/.mat inside) or glob patterns.
+/// Inputs: files, directories (every .wav/.csv/.mat inside) or glob patterns, and/or
+/// simulated signals.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InputSpec {
     /// Paths, directories or globs, relative to the job file.
+    #[serde(default)]
     pub paths: Vec<String>,
+    /// Simulations whose output is an input like a file (`[[input.simulate]]`).
+    #[serde(default)]
+    pub simulate: Vec<SimulateSpec>,
     /// Channel or variable (see `twinscope info`).
     #[serde(default)]
     pub channel: Option<String>,
@@ -44,6 +49,102 @@ pub struct InputSpec {
     /// Physical unit override.
     #[serde(default)]
     pub unit: Option<String>,
+}
+
+/// A `simulate` step: a machine (file or preset) with optional overrides.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulateSpec {
+    /// Machine description (TOML), relative to the job file.
+    #[serde(default)]
+    pub machine: Option<String>,
+    /// A bundled machine preset (see `twinscope presets`).
+    #[serde(default)]
+    pub preset: Option<String>,
+    /// Duration override, s.
+    #[serde(default)]
+    pub duration_s: Option<f64>,
+    /// Seed override.
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Effects to switch on with default parameters.
+    #[serde(default)]
+    pub with: Vec<String>,
+    /// Effects to switch off.
+    #[serde(default)]
+    pub without: Vec<String>,
+    /// Also write the simulated signal (.wav or .csv), relative to the output directory.
+    #[serde(default)]
+    pub save: Option<String>,
+}
+
+/// One input of a job.
+#[derive(Debug, Clone)]
+pub enum InputSource {
+    /// A file.
+    File(PathBuf),
+    /// A simulated signal (index into `input.simulate`).
+    Simulated(usize),
+}
+
+impl InputSource {
+    /// A name for messages and output directories.
+    pub fn display_name(&self, job: &Job) -> String {
+        match self {
+            InputSource::File(p) => p.display().to_string(),
+            InputSource::Simulated(i) => {
+                let s = &job.input.simulate[*i];
+                format!("simulate[{i}] {}", s.preset.clone().or_else(|| s.machine.clone()).unwrap_or_default())
+            }
+        }
+    }
+
+    /// The output directory stem.
+    pub fn stem(&self, job: &Job) -> String {
+        match self {
+            InputSource::File(p) => p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "input".into()),
+            InputSource::Simulated(i) => {
+                let s = &job.input.simulate[*i];
+                let base = s.preset.clone().or_else(|| s.machine.as_ref().and_then(|m| Path::new(m).file_stem().map(|x| x.to_string_lossy().into_owned()))).unwrap_or_else(|| "machine".into());
+                format!("sim_{base}")
+            }
+        }
+    }
+}
+
+impl SimulateSpec {
+    /// The machine with the overrides applied.
+    pub fn machine(&self, base_dir: &Path, index: usize) -> Result<crate::model::Machine, String> {
+        use crate::model::{self, EffectKind, Machine};
+        let at = |m: String| format!("`input.simulate[{index}]`: {m}");
+        let mut m = match (&self.machine, &self.preset) {
+            (Some(f), None) => {
+                let path = base_dir.join(f);
+                let text = std::fs::read_to_string(&path).map_err(|e| at(format!("`machine` {}: {e}", path.display())))?;
+                Machine::from_toml(&text, &path.display().to_string()).map_err(|e| at(e.to_string()))?
+            }
+            (None, Some(p)) => model::preset(p).map_err(|e| at(e.to_string()))?,
+            _ => return Err(at("give exactly one of `machine` and `preset`".into())),
+        };
+        if let Some(d) = self.duration_s {
+            m.duration_s = d;
+        }
+        if let Some(s) = self.seed {
+            m.seed = s;
+        }
+        for (list, on) in [(&self.with, true), (&self.without, false)] {
+            for name in list.iter() {
+                let k = EffectKind::parse(name).ok_or_else(|| at(format!("unknown effect `{name}`")))?;
+                if on {
+                    m.effects.enable(k)
+                } else {
+                    m.effects.disable(k)
+                }
+            }
+        }
+        m.validate().map_err(|e| at(e.to_string()))?;
+        Ok(m)
+    }
 }
 
 impl InputSpec {
@@ -145,8 +246,8 @@ impl Job {
     }
 
     fn check(&self) -> Result<(), String> {
-        if self.input.paths.is_empty() {
-            return Err("`input.paths` is empty: name at least one file, directory or glob".into());
+        if self.input.paths.is_empty() && self.input.simulate.is_empty() {
+            return Err("no inputs: give `input.paths` (files, directories, globs) or `[[input.simulate]]`".into());
         }
         if let Some(fs) = self.input.fs_hz {
             if !(fs.is_finite() && fs > 0.0) {
@@ -212,6 +313,18 @@ impl Job {
             Some(d) => self.base_dir().join(d),
             None => self.base_dir().join("out").join(&self.name),
         }
+    }
+
+    /// All inputs: the expanded files, then the simulations.
+    pub fn sources(&self) -> Result<Vec<InputSource>, BatchError> {
+        let mut v: Vec<InputSource> = self.expand_inputs()?.into_iter().map(InputSource::File).collect();
+        v.extend((0..self.input.simulate.len()).map(InputSource::Simulated));
+        Ok(v)
+    }
+
+    /// The directory relative paths are taken from.
+    pub fn base(&self) -> PathBuf {
+        self.base_dir()
     }
 
     /// Expands `input.paths` (files, directories, globs) into a sorted list of files.

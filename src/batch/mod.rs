@@ -9,7 +9,7 @@
 mod job;
 mod output;
 
-pub use job::{ChainSpec, InputSpec, Job, MachineSpec, OutputSpec};
+pub use job::{ChainSpec, InputSource, InputSpec, Job, MachineSpec, OutputSpec, SimulateSpec};
 pub use output::{InputSummary, JobSummary, PeakReport};
 
 use crate::chain::{ChainContext, ChainError};
@@ -31,6 +31,9 @@ pub enum BatchError {
     /// A chain failed on an input.
     #[error("{input}: {source}")]
     Chain { input: String, source: ChainError },
+    /// A simulation failed.
+    #[error("{input}: {message}")]
+    Simulate { input: String, message: String },
     /// Writing an output failed.
     #[error("writing {path}: {message}")]
     Write { path: String, message: String },
@@ -65,19 +68,19 @@ pub fn run_job_file(path: &Path, progress: &dyn Progress) -> Result<JobSummary, 
 /// Runs a parsed job.
 pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchError> {
     let chain = job.chain()?;
-    let inputs = job.expand_inputs()?;
+    let inputs = job.sources()?;
     let out_dir = job.output_dir();
     std::fs::create_dir_all(&out_dir).map_err(|e| BatchError::Write { path: out_dir.display().to_string(), message: e.to_string() })?;
     progress.start(inputs.len());
     let done = AtomicUsize::new(0);
-    let stems = output::unique_stems(&inputs);
+    let stems = output::unique_stems(&inputs.iter().map(|i| PathBuf::from(i.stem(job))).collect::<Vec<_>>());
     let results: Vec<Result<InputSummary, BatchError>> = inputs
         .par_iter()
         .zip(stems.par_iter())
         .map(|(input, stem)| {
             let r = run_one(job, &chain, input, &out_dir.join(stem));
             let d = done.fetch_add(1, Ordering::SeqCst) + 1;
-            progress.input_done(d, inputs.len(), input, r.is_ok());
+            progress.input_done(d, inputs.len(), Path::new(&input.display_name(job)), r.is_ok());
             r
         })
         .collect();
@@ -104,13 +107,31 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
     Ok(summary)
 }
 
-fn run_one(job: &Job, chain: &crate::chain::Chain, input: &PathBuf, dir: &Path) -> Result<InputSummary, BatchError> {
-    let signal = io::load(input, &job.input.load_options())?;
+fn run_one(job: &Job, chain: &crate::chain::Chain, input: &InputSource, dir: &Path) -> Result<InputSummary, BatchError> {
+    let signal = match input {
+        InputSource::File(p) => io::load(p, &job.input.load_options())?,
+        InputSource::Simulated(i) => {
+            let spec = &job.input.simulate[*i];
+            let name = input.display_name(job);
+            let machine = spec.machine(&job.base(), *i).map_err(|message| BatchError::Simulate { input: name.clone(), message })?;
+            let s = crate::model::simulate(&machine).map_err(|e| BatchError::Simulate { input: name.clone(), message: e.to_string() })?;
+            if let Some(save) = &spec.save {
+                std::fs::create_dir_all(dir).map_err(|e| BatchError::Write { path: dir.display().to_string(), message: e.to_string() })?;
+                io::save(&s, &dir.join(save))?;
+            }
+            s
+        }
+    };
+    let bearing = match job.machine.bearing()? {
+        Some(b) => Some(b),
+        // A signal that names its bearing (a simulation, a WAV sidecar) is used as is.
+        None => signal.meta.bearing.as_deref().and_then(|n| crate::kinematics::lookup_bearing(n).ok()),
+    };
     let ctx = ChainContext {
-        bearing: job.machine.bearing()?,
+        bearing,
         shaft_speed_hz: job.machine.shaft_speed_hz.or(signal.meta.shaft_speed_hz),
     };
-    let result = chain.run(&signal, &ctx, |_, _, _| {}).map_err(|source| BatchError::Chain { input: input.display().to_string(), source })?;
+    let result = chain.run(&signal, &ctx, |_, _, _| {}).map_err(|source| BatchError::Chain { input: input.display_name(job), source })?;
     std::fs::create_dir_all(dir).map_err(|e| BatchError::Write { path: dir.display().to_string(), message: e.to_string() })?;
     output::write_input(job, &signal, &ctx, &result, dir)
 }
