@@ -126,6 +126,17 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         });
     }
 
+    // The physics model: 10 s of each bundled rig that exists.
+    for (preset, label) in [("mfs_outer", "simulate 10 s of the MFS rig (15-DOF-class, 16384 Hz)"), ("cwru_6205_inner", "simulate 10 s of the CWRU 6205 model (12 kHz)")] {
+        if let Ok(mut m) = twinscope::model::preset(preset) {
+            m.duration_s = 10.0;
+            let built = twinscope::model::Model::build(&m)?;
+            let ms = median_ms(r.min(3), || Ok(twinscope::model::run(&built, |_| true).map(|_| ())?))?;
+            eprintln!("twinscope bench: {preset}: {} DOFs, {} substeps, step {:.3e} s", built.system.n(), m.substeps, 1.0 / (m.fs_hz * m.substeps as f64));
+            rows.push(Row { name: label, ours_ms: ms, reference: "-", reference_key: None });
+        }
+    }
+
     let scf_fast = ScfParams { alpha_min_hz: 0.0, alpha_max_hz: 500.0, ..Default::default() };
     let fast_ms = median_ms(r, || Ok(dsp::scf::fast_scf(&x, fs, &scf_fast).map(|_| ())?))?;
     rows.push(Row { name: "fast SCF, α 0–500 Hz (defaults)", ours_ms: fast_ms, reference: "-", reference_key: None });

@@ -10,6 +10,7 @@
 
 pub mod batch;
 pub mod chain;
+pub mod compare;
 pub mod dsp;
 pub mod kinematics;
 pub mod model;

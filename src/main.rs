@@ -48,6 +48,31 @@ enum Command {
     },
     /// List the bundled chain presets and machine presets.
     Presets,
+    /// Compare a simulated signal with a measured one: metrics per domain and the residual map.
+    Compare {
+        /// Measured signal (.wav, .csv, .mat).
+        measured: PathBuf,
+        /// Simulated signal, or a machine preset with `--preset`.
+        simulated: Option<PathBuf>,
+        /// Simulate this machine preset instead of reading a file.
+        #[arg(long, conflicts_with = "simulated")]
+        preset: Option<String>,
+        /// Effects to switch on in the preset before simulating.
+        #[arg(long = "with", value_name = "EFFECT")]
+        with: Vec<String>,
+        /// Channel/variable of the measured file.
+        #[arg(long)]
+        channel: Option<String>,
+        /// Demodulation band, Hz, e.g. `1800,3000`.
+        #[arg(long, value_delimiter = ',')]
+        band_hz: Option<Vec<f64>>,
+        /// Catalogue bearing for line labels (default: from the signal metadata).
+        #[arg(long)]
+        bearing: Option<String>,
+        /// Write the full comparison as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Simulate a machine (TOML, or a bundled preset) and write the sensor signal (.wav or .csv).
     Simulate {
         /// Machine description (TOML); or use --preset.
@@ -109,6 +134,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Some(Command::Bench(args)) => bench::run(&args),
+        Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, json.as_deref()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => {
             eprintln!("twinscope: nothing to do. Try `twinscope --batch sample_data/demo_envelope.toml` or `twinscope --help`.");
@@ -260,6 +286,55 @@ fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, dur
     io::save(&signal, output)?;
     if !quiet {
         eprintln!("twinscope: simulated {:.2} s of `{}` in {:.2} s ({} DOFs) → {}", m.duration_s, m.name, started.elapsed().as_secs_f64(), built.system.n(), output.display());
+    }
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>, with: &[String], channel: Option<String>, band_hz: Option<Vec<f64>>, bearing: Option<String>, json: Option<&Path>) -> Result<()> {
+    use twinscope::compare::{self, CompareOptions};
+    use twinscope::model::{self, EffectKind};
+    let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
+    let sim = match (simulated, preset) {
+        (Some(p), _) => io::load(p, &io::LoadOptions::default())?,
+        (None, Some(name)) => {
+            let mut m = model::preset(&name)?;
+            for n in with {
+                m.effects.enable(EffectKind::parse(n).with_context(|| format!("unknown effect `{n}`"))?);
+            }
+            model::simulate(&m)?
+        }
+        (None, None) => anyhow::bail!("give a simulated file or --preset"),
+    };
+    let mut opts = CompareOptions::default();
+    if let Some(b) = band_hz {
+        anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz (got {})", b.len());
+        opts.envelope_band_hz = [b[0], b[1]];
+    }
+    let bearing_name = bearing.or(meas.meta.bearing.clone()).or(sim.meta.bearing.clone());
+    let ff = match (bearing_name, meas.meta.shaft_speed_hz) {
+        (Some(b), Some(fr)) => Some(lookup_bearing(&b)?.fault_frequencies(fr)?),
+        _ => None,
+    };
+    let cmp = compare::compare(&meas, &sim, &opts)?;
+    println!("{:<18} {:>9} {:>9} {:>6} {:>12} {:>10}", "domain", "pearson", "xcorr", "lag", "rmse", "nrmse_%");
+    for d in &cmp.domains {
+        let m = &d.metrics;
+        println!("{:<18} {:>9.3} {:>9.3} {:>6} {:>12.4e} {:>10.2}", d.domain, m.pearson, m.xcorr_peak, m.xcorr_lag, m.rmse, m.nrmse_percent);
+    }
+    println!("NRMSE normaliser: {}; simulated/measured RMS {:+.1} dB", opts.normaliser.name(), cmp.alignment.rms_ratio_db);
+    let families = ff.map(|f| f.families()).unwrap_or_default();
+    let map = compare::residual_map(&cmp, &families, meas.meta.shaft_speed_hz);
+    println!("\nwhere the envelope error lives (share of squared error):");
+    for (f, s) in map.envelope_families.iter().take(8) {
+        println!("  {f:<22} {s:6.1} %");
+    }
+    println!("\ntop residual items:");
+    for it in map.items.iter().take(12) {
+        println!("  {:<14} {:<26} {:6.1} %  measured {:.4} model {:.4}  {}", it.kind, it.label, it.share_percent, it.measured, it.simulated, it.note);
+    }
+    if let Some(p) = json {
+        std::fs::write(p, serde_json::to_string_pretty(&serde_json::json!({ "comparison": cmp, "residual_map": map }))?)?;
     }
     Ok(())
 }

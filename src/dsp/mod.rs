@@ -7,6 +7,7 @@ pub mod error;
 pub mod fft;
 pub mod normalise;
 pub mod remez;
+pub mod resample;
 pub mod scf;
 pub mod spectrum;
 pub mod stsa;

@@ -1,0 +1,287 @@
+//! Model-vs-measurement comparison: aligned quantities in several domains (envelope spectrum,
+//! Welch PSD in dB, SCF α-slices, time RMS), their metrics, and a residual map that says where
+//! the model fails.
+
+pub mod metrics;
+pub mod residual;
+
+pub use metrics::{metrics, pearson, xcorr_peak, Metrics, Normaliser};
+pub use residual::{residual_map, ResidualItem, ResidualMap};
+
+use crate::dsp::{self, remez::BandpassSpec, spectrum::Spectrum};
+use crate::model::STANDARD_GRAVITY;
+use crate::signal::Signal;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Why two signals cannot be compared.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum CompareError {
+    /// Units that cannot be converted into each other.
+    #[error("units differ: measured `{measured}`, simulated `{simulated}`; convert one (only g ↔ m/s^2 is converted automatically)")]
+    Units { measured: String, simulated: String },
+    /// Shaft speeds too far apart for order normalisation.
+    #[error("shaft speeds differ by {percent:.1} % (measured {measured_hz:.3} Hz, simulated {simulated_hz:.3} Hz), more than the {limit_percent} % that order normalisation may bridge; set the model's speed")]
+    Speed { measured_hz: f64, simulated_hz: f64, percent: f64, limit_percent: f64 },
+    /// Too little common data.
+    #[error("too little common data: {0}")]
+    TooShort(String),
+    /// A DSP step failed.
+    #[error("{domain}: {message}")]
+    Dsp { domain: String, message: String },
+    /// A parameter is unusable.
+    #[error("parameter `{name}`: {reason}")]
+    Parameter { name: &'static str, reason: String },
+}
+
+/// Comparison settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CompareOptions {
+    /// Demodulation band of the envelope analysis, Hz (equiripple bandpass, seed spec figures).
+    pub envelope_band_hz: [f64; 2],
+    /// Band of the envelope spectrum compared, Hz. Default 0–200 (the seed's).
+    pub envelope_spectrum_band_hz: [f64; 2],
+    /// Band of the PSD compared, Hz; `None` = 0 to the lower Nyquist.
+    pub psd_band_hz: Option<[f64; 2]>,
+    /// Welch segment length. Default 2048.
+    pub psd_nperseg: usize,
+    /// Also compare SCF α-slices (cost ≈ 0.1 s per signal). Default true.
+    pub scf: bool,
+    /// Segment length of the SCF. Default 256.
+    pub scf_nperseg: usize,
+    /// NRMSE normaliser. Default range (the seed's).
+    pub normaliser: Normaliser,
+    /// Largest speed mismatch bridged by order normalisation, %. Default 5.
+    pub max_speed_mismatch_percent: f64,
+    /// Fault frequency for the SCF α-slice (Hz); `None` = only α = 0 and shaft speed.
+    pub fault_frequency_hz: Option<f64>,
+}
+
+impl Default for CompareOptions {
+    fn default() -> Self {
+        Self {
+            envelope_band_hz: [900.0, 1800.0],
+            envelope_spectrum_band_hz: [0.0, 200.0],
+            psd_band_hz: None,
+            psd_nperseg: 2048,
+            scf: true,
+            scf_nperseg: 256,
+            normaliser: Normaliser::Range,
+            max_speed_mismatch_percent: 5.0,
+            fault_frequency_hz: None,
+        }
+    }
+}
+
+/// One compared quantity on a common axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DomainComparison {
+    /// `envelope`, `psd_db`, `scf_alpha_0`, `scf_alpha_shaft`, `scf_alpha_fault`.
+    pub domain: String,
+    /// What the values are, with unit.
+    pub quantity: String,
+    /// Common axis (Hz).
+    pub frequency_hz: Vec<f64>,
+    /// Measured values.
+    pub measured: Vec<f64>,
+    /// Simulated values (on the measured axis).
+    pub simulated: Vec<f64>,
+    /// Metrics of simulated against measured.
+    pub metrics: Metrics,
+}
+
+/// How the two signals were brought together.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Alignment {
+    /// Common sampling rate, Hz (the measured one).
+    pub fs_hz: f64,
+    /// Whether the simulated signal was resampled.
+    pub resampled_from_hz: Option<f64>,
+    /// Factor applied to the simulated signal's unit (e.g. 1/9.80665 for m/s² → g).
+    pub unit_factor: f64,
+    /// Measured / simulated shaft speed applied to the simulated frequency axes (order
+    /// normalisation); 1 when equal or unknown.
+    pub speed_ratio: f64,
+    /// Duration compared, s (the shorter record).
+    pub duration_s: f64,
+    /// Simulated/measured RMS in dB over the compared duration.
+    pub rms_ratio_db: f64,
+}
+
+/// The result of [`compare`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Comparison {
+    /// Alignment applied.
+    pub alignment: Alignment,
+    /// One entry per domain.
+    pub domains: Vec<DomainComparison>,
+}
+
+impl Comparison {
+    /// The comparison of one domain.
+    pub fn domain(&self, name: &str) -> Option<&DomainComparison> {
+        self.domains.iter().find(|d| d.domain == name)
+    }
+
+    /// Envelope NRMSE in percent (the loop's headline error).
+    pub fn envelope_nrmse(&self) -> f64 {
+        self.domain("envelope").map(|d| d.metrics.nrmse_percent).unwrap_or(f64::INFINITY)
+    }
+}
+
+/// Brings `simulated` onto `measured`'s unit, sampling rate and length; refuses what cannot be
+/// compared (different units, speeds beyond the order-normalisation limit).
+pub fn align(measured: &Signal, simulated: &Signal, opts: &CompareOptions) -> Result<(Vec<f64>, Vec<f64>, Alignment), CompareError> {
+    let unit_factor = match (measured.unit.as_str(), simulated.unit.as_str()) {
+        (a, b) if a == b => 1.0,
+        ("g", "m/s^2") => 1.0 / STANDARD_GRAVITY,
+        ("m/s^2", "g") => STANDARD_GRAVITY,
+        (a, b) => return Err(CompareError::Units { measured: a.to_string(), simulated: b.to_string() }),
+    };
+    let speed_ratio = match (measured.meta.shaft_speed_hz, simulated.meta.shaft_speed_hz) {
+        (Some(m), Some(s)) if m > 0.0 && s > 0.0 => {
+            let pct = (m - s).abs() / m * 100.0;
+            if pct > opts.max_speed_mismatch_percent {
+                return Err(CompareError::Speed { measured_hz: m, simulated_hz: s, percent: pct, limit_percent: opts.max_speed_mismatch_percent });
+            }
+            m / s
+        }
+        _ => 1.0,
+    };
+    let mut sim: Vec<f64> = simulated.samples.iter().map(|v| v * unit_factor).collect();
+    let resampled_from_hz = if (simulated.fs_hz - measured.fs_hz).abs() > 1e-9 * measured.fs_hz {
+        sim = dsp::resample::resample(&sim, simulated.fs_hz, measured.fs_hz).map_err(|e| CompareError::Dsp { domain: "resampling".into(), message: e.to_string() })?;
+        Some(simulated.fs_hz)
+    } else {
+        None
+    };
+    let n = measured.len().min(sim.len());
+    if n < 1024 {
+        return Err(CompareError::TooShort(format!("{n} common samples at {} Hz; need at least 1024", measured.fs_hz)));
+    }
+    let meas = measured.samples[..n].to_vec();
+    sim.truncate(n);
+    let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+    let rms_ratio_db = 20.0 * (rms(&sim) / rms(&meas).max(1e-300)).log10();
+    Ok((meas, sim, Alignment { fs_hz: measured.fs_hz, resampled_from_hz, unit_factor, speed_ratio, duration_s: n as f64 / measured.fs_hz, rms_ratio_db }))
+}
+
+fn dsp_err(domain: &str) -> impl Fn(dsp::DspError) -> CompareError + '_ {
+    move |e| CompareError::Dsp { domain: domain.to_string(), message: e.to_string() }
+}
+
+/// Linear interpolation of `(x, y)` at `at` (clamped at the ends).
+fn interp(x: &[f64], y: &[f64], at: f64) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let i = x.partition_point(|v| *v < at);
+    if i == 0 {
+        return y[0];
+    }
+    if i >= x.len() {
+        return y[x.len() - 1];
+    }
+    let (x0, x1) = (x[i - 1], x[i]);
+    let w = if x1 > x0 { (at - x0) / (x1 - x0) } else { 0.0 };
+    y[i - 1] * (1.0 - w) + y[i] * w
+}
+
+/// Puts a simulated spectrum on the measured axis, stretching its frequencies by the speed
+/// ratio (order normalisation).
+fn onto_axis(meas: &Spectrum, sim: &Spectrum, speed_ratio: f64) -> Vec<f64> {
+    let xs: Vec<f64> = sim.frequency_hz.iter().map(|f| f * speed_ratio).collect();
+    meas.frequency_hz.iter().map(|&f| interp(&xs, &sim.values, f)).collect()
+}
+
+fn unit_rms(x: &[f64]) -> Vec<f64> {
+    let rms = (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt();
+    if rms > 0.0 {
+        x.iter().map(|v| v / rms).collect()
+    } else {
+        x.to_vec()
+    }
+}
+
+/// The envelope spectrum the comparison uses: the signal scaled to unit RMS, bandpassed by the
+/// equiripple filter over `envelope_band_hz` (seed figures: 1 dB ripple, 60/80 dB stopbands,
+/// transitions of 10 % of the band or 200 Hz, whichever is smaller), then the envelope spectrum
+/// over `envelope_spectrum_band_hz`.
+pub fn envelope_spectrum_for_compare(x: &[f64], fs_hz: f64, opts: &CompareOptions) -> Result<Spectrum, CompareError> {
+    let [lo, hi] = opts.envelope_band_hz;
+    let tw = (0.1 * (hi - lo)).min(200.0).max(1.0);
+    let spec = BandpassSpec { pass_band_hz: [lo, hi], transition_low_hz: tw, transition_high_hz: tw, ..BandpassSpec::default() };
+    let (y, _) = dsp::remez::bandpass_zero_phase(&unit_rms(x), fs_hz, &spec).map_err(dsp_err("envelope bandpass"))?;
+    let p = dsp::envelope::EnvelopeParams { band_hz: Some(opts.envelope_spectrum_band_hz), ..Default::default() };
+    dsp::envelope::envelope_spectrum(&y, fs_hz, &p).map_err(dsp_err("envelope spectrum"))
+}
+
+/// Compares `simulated` with `measured` in every domain.
+pub fn compare(measured: &Signal, simulated: &Signal, opts: &CompareOptions) -> Result<Comparison, CompareError> {
+    let (meas, sim, al) = align(measured, simulated, opts)?;
+    let fs = al.fs_hz;
+    let mut domains = Vec::new();
+    let max_lag = 20;
+
+    // Envelope spectrum.
+    let em = envelope_spectrum_for_compare(&meas, fs, opts)?;
+    let es = envelope_spectrum_for_compare(&sim, fs, opts)?;
+    let es_on = onto_axis(&em, &es, al.speed_ratio);
+    domains.push(DomainComparison {
+        domain: "envelope".into(),
+        quantity: "envelope spectrum of the unit-RMS signal".into(),
+        metrics: metrics(&em.values, &es_on, opts.normaliser, max_lag),
+        frequency_hz: em.frequency_hz.clone(),
+        measured: em.values,
+        simulated: es_on,
+    });
+
+    // Welch PSD in dB.
+    let wp = dsp::welch::WelchParams { nperseg: opts.psd_nperseg.min(meas.len()), ..Default::default() };
+    let pm = dsp::welch::welch_psd(&meas, fs, &wp).map_err(dsp_err("psd"))?.to_spectrum(&measured.unit);
+    let ps = dsp::welch::welch_psd(&sim, fs, &wp).map_err(dsp_err("psd"))?.to_spectrum(&measured.unit);
+    let [plo, phi] = opts.psd_band_hz.unwrap_or([0.0, fs / 2.0]);
+    let pm = pm.band(plo, phi).map_err(dsp_err("psd band"))?;
+    let ps_on = onto_axis(&pm, &ps, al.speed_ratio);
+    let db = |v: f64| 10.0 * v.max(1e-30).log10();
+    let pm_db: Vec<f64> = pm.values.iter().map(|v| db(*v)).collect();
+    let ps_db: Vec<f64> = ps_on.iter().map(|v| db(*v)).collect();
+    domains.push(DomainComparison {
+        domain: "psd_db".into(),
+        quantity: format!("Welch PSD, dB re 1 {}²/Hz", measured.unit),
+        metrics: metrics(&pm_db, &ps_db, opts.normaliser, max_lag),
+        frequency_hz: pm.frequency_hz.clone(),
+        measured: pm_db,
+        simulated: ps_db,
+    });
+
+    // SCF α-slices at 0, the shaft speed and the fault frequency.
+    if opts.scf {
+        let mut alphas = vec![("scf_alpha_0", 0.0)];
+        if let Some(fr) = measured.meta.shaft_speed_hz {
+            alphas.push(("scf_alpha_shaft", fr));
+        }
+        if let Some(ff) = opts.fault_frequency_hz {
+            alphas.push(("scf_alpha_fault", ff));
+        }
+        let amax = alphas.iter().map(|a| a.1).fold(0.0f64, f64::max) * 1.02 + 1.0;
+        let p = dsp::scf::ScfParams { alpha_min_hz: 0.0, alpha_max_hz: amax.min(fs / 2.0), nperseg: opts.scf_nperseg, ..Default::default() };
+        let (mu, su) = (unit_rms(&meas), unit_rms(&sim));
+        let sm = dsp::scf::fast_scf(&mu, fs, &p).map_err(dsp_err("scf"))?;
+        let ss = dsp::scf::fast_scf(&su, fs, &p).map_err(dsp_err("scf"))?;
+        for (name, alpha) in alphas {
+            let (f, a) = sm.alpha_slice(alpha).map_err(dsp_err(name))?;
+            let (_, b) = ss.alpha_slice(alpha / al.speed_ratio).map_err(dsp_err(name))?;
+            domains.push(DomainComparison {
+                domain: name.into(),
+                quantity: format!("|S(α = {alpha:.2} Hz, f)| of the unit-RMS signal"),
+                metrics: metrics(&a, &b, opts.normaliser, 0),
+                frequency_hz: f,
+                measured: a,
+                simulated: b,
+            });
+        }
+    }
+    Ok(Comparison { alignment: al, domains })
+}

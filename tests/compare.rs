@@ -1,0 +1,84 @@
+//! Comparison: alignment refuses what cannot be compared and resamples what can; metrics on
+//! identical and on shifted signals; the residual map puts a missing line's error on its label.
+
+use twinscope::compare::{align, compare, residual_map, CompareOptions, CompareError};
+use twinscope::kinematics::lookup_bearing;
+use twinscope::signal::{synth, Signal};
+
+fn bearing_signal(fs: f64, seconds: f64, modulation: f64, seed: u64) -> Signal {
+    let n = (fs * seconds) as usize;
+    let ff = lookup_bearing("6205").unwrap().fault_frequencies(29.95).unwrap();
+    let p = synth::ImpactTrain { fault_frequency_hz: ff.bpfi_hz, resonance_hz: 2500.0, damping_ratio: 0.05, jitter_fraction: 0.005, modulation_depth: modulation, modulation_hz: 29.95, amplitude: 1.0 };
+    let mut x = synth::impact_train(n, fs, &p, seed);
+    for (a, b) in x.iter_mut().zip(synth::white_noise(n, 0.05, seed + 1)) {
+        *a += b;
+    }
+    let mut s = Signal::new(x, fs, "synthetic", "g");
+    s.meta.shaft_speed_hz = Some(29.95);
+    s
+}
+
+fn opts() -> CompareOptions {
+    CompareOptions { envelope_band_hz: [1800.0, 3200.0], ..Default::default() }
+}
+
+#[test]
+fn identical_signals_compare_perfectly() {
+    let a = bearing_signal(12000.0, 2.0, 0.5, 1);
+    let c = compare(&a, &a, &opts()).unwrap();
+    for d in &c.domains {
+        assert!(d.metrics.rmse < 1e-12 && (d.metrics.pearson - 1.0).abs() < 1e-9, "{}: {:?}", d.domain, d.metrics);
+        assert_eq!(d.metrics.xcorr_lag, 0);
+    }
+    assert!(c.alignment.rms_ratio_db.abs() < 1e-9);
+}
+
+#[test]
+fn units_speeds_and_lengths_are_checked() {
+    let a = bearing_signal(12000.0, 1.0, 0.5, 1);
+    let mut b = a.clone();
+    b.unit = "V".into();
+    assert!(matches!(align(&a, &b, &opts()), Err(CompareError::Units { .. })));
+    // g vs m/s² is converted.
+    let mut c = a.clone();
+    c.unit = "m/s^2".into();
+    c.samples.iter_mut().for_each(|v| *v *= 9.80665);
+    let (m, s, al) = align(&a, &c, &opts()).unwrap();
+    assert!((al.unit_factor - 1.0 / 9.80665).abs() < 1e-15);
+    assert!(m.iter().zip(&s).all(|(x, y)| (x - y).abs() < 1e-12));
+    // 10 % speed difference is refused, 1 % is bridged by order normalisation.
+    let mut d = a.clone();
+    d.meta.shaft_speed_hz = Some(29.95 * 1.1);
+    let e = align(&a, &d, &opts()).unwrap_err().to_string();
+    assert!(e.contains("shaft speeds differ"), "{e}");
+    d.meta.shaft_speed_hz = Some(29.95 * 1.01);
+    assert!((align(&a, &d, &opts()).unwrap().2.speed_ratio - 1.0 / 1.01).abs() < 1e-12);
+    // Too short.
+    let short = Signal::new(vec![0.0; 100], 12000.0, "s", "g");
+    assert!(matches!(align(&a, &short, &opts()), Err(CompareError::TooShort(_))));
+}
+
+#[test]
+fn different_sampling_rates_are_resampled_not_compared_silently_wrong() {
+    let a = bearing_signal(12000.0, 2.0, 0.5, 1);
+    let b = bearing_signal(16384.0, 2.0, 0.5, 1);
+    let c = compare(&a, &b, &opts()).unwrap();
+    assert_eq!(c.alignment.resampled_from_hz, Some(16384.0));
+    // Same process, different sampling: envelope spectra agree well.
+    assert!(c.domain("envelope").unwrap().metrics.pearson > 0.8, "{:?}", c.domain("envelope").unwrap().metrics);
+}
+
+#[test]
+fn residual_map_puts_missing_sidebands_on_their_label() {
+    // "Measurement" has load-zone modulation (BPFI ± shaft sidebands); the "model" has none.
+    let meas = bearing_signal(12000.0, 3.0, 0.8, 1);
+    let model = bearing_signal(12000.0, 3.0, 0.0, 2);
+    let c = compare(&meas, &model, &opts()).unwrap();
+    let ff = lookup_bearing("6205").unwrap().fault_frequencies(29.95).unwrap();
+    let map = residual_map(&c, &ff.families(), Some(29.95));
+    let sb = map.family_share("BPFI ± shaft") + map.family_share("shaft harmonics");
+    assert!(sb > 40.0, "sideband + shaft share {sb:.1} %: {:?}", map.envelope_families);
+    let top = map.items.iter().find(|i| i.kind == "envelope_line").unwrap();
+    assert!(top.family == "BPFI ± shaft" || top.family == "shaft harmonics", "{top:?}");
+    assert_eq!(top.note, "in the measurement, absent from the model");
+}
