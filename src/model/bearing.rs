@@ -198,15 +198,33 @@ impl BearingElement {
 
     /// Contact load of each ball at a state (for tests and load-distribution checks), N.
     pub fn ball_loads(&self, t: f64, q: &[f64]) -> Vec<f64> {
+        self.ball_deflections(t, q).into_iter().map(|d| self.contact_force(d)).collect()
+    }
+
+    /// Contact deflection of each ball at a state, m (positive = compressed): `δ_j = (x_s − x_p)
+    /// sin φ_j − (y_s − y_p) cos φ_j − c − h_j`, with `h_j` the fault depth under the ball.
+    pub fn ball_deflections(&self, t: f64, q: &[f64]) -> Vec<f64> {
         let dx = q[self.shaft.0] - q[self.pedestal.0];
         let dy = q[self.shaft.1] - q[self.pedestal.1];
         (0..self.balls)
             .map(|j| {
                 let phi = self.ball_angle(j, t);
-                let delta = dx * phi.sin() - dy * phi.cos() - self.clearance_m - self.fault_depth(j, phi, t);
-                self.contact_force(delta)
+                dx * phi.sin() - dy * phi.cos() - self.clearance_m - self.fault_depth(j, phi, t)
             })
             .collect()
+    }
+
+    /// Potential energy stored in one contact at deflection `delta` (m), J:
+    /// `K δ^(n+1)/(n+1)` (Hertz) or `½ k δ²` (linear); 0 when unloaded.
+    #[inline]
+    fn contact_potential(&self, delta: f64) -> f64 {
+        if delta <= 0.0 {
+            return 0.0;
+        }
+        match self.law {
+            ContactLaw::Hertz { k, n } => k * delta.powf(n + 1.0) / (n + 1.0),
+            ContactLaw::Linear { k } => 0.5 * k * delta * delta,
+        }
     }
 
     #[inline]
@@ -272,6 +290,12 @@ impl ForceElement for BearingElement {
         f[self.shaft.1] -= fy;
         f[self.pedestal.0] += fx;
         f[self.pedestal.1] += fy;
+    }
+
+    /// `Σ_j K δ_j^(n+1)/(n+1)` over the loaded balls (or `½ k δ_j²` for a linear contact), J,
+    /// with the ball positions and fault depths frozen at `t`.
+    fn potential_energy(&self, t: f64, q: &[f64]) -> Option<f64> {
+        Some(self.ball_deflections(t, q).into_iter().map(|d| self.contact_potential(d)).sum())
     }
 }
 

@@ -107,6 +107,12 @@ impl ForceElement for GearMeshElement {
         f[self.line.0] -= force;
         f[self.line.1] += force;
     }
+
+    /// `½ k(t) δ²` with the mesh stiffness frozen at `t`, J.
+    fn potential_energy(&self, t: f64, q: &[f64]) -> Option<f64> {
+        let d = self.deflection(q);
+        Some(0.5 * self.stiffness.at(self.pinion_motion.angle(t)) * d * d)
+    }
 }
 
 /// A radial force at orders of a shaft's rotation. With two DOFs it rotates:
@@ -140,6 +146,20 @@ impl ForceElement for OrderForce {
                 f[y] += a * s;
             }
         }
+    }
+
+    /// `−F(t) · q`, the potential of the prescribed force frozen at `t`, J.
+    fn potential_energy(&self, t: f64, q: &[f64]) -> Option<f64> {
+        let mut f = [0.0; 2];
+        let theta = self.motion.angle(t);
+        let speed_ratio = self.motion.speed_hz(t) / self.motion.mean_hz;
+        for &(order, amp, phase, quadratic) in &self.terms {
+            let a = if quadratic { amp * speed_ratio * speed_ratio } else { amp };
+            let (s, c) = (order * theta + phase).sin_cos();
+            f[0] += a * c;
+            f[1] += a * s;
+        }
+        Some(-f[0] * q[self.dofs.0] - self.dofs.1.map_or(0.0, |y| f[1] * q[y]))
     }
 }
 

@@ -41,7 +41,14 @@ impl<'a> Simulator<'a> {
     /// Starts from the static equilibrium at t = 0 (found by Levenberg–Marquardt), at rest.
     pub fn new(model: &'a Model) -> Result<Self, ModelError> {
         let sys = &model.system;
-        let q = sys.static_equilibrium(0.0, &model.q_guess, 1e-6)?;
+        let q = match sys.static_equilibrium(0.0, &model.q_guess, 1e-6) {
+            Ok(q) => q,
+            Err(e) => {
+                // A free DOF is the usual cause: name it rather than the worst residual.
+                sys.check_supported(&model.q_guess)?;
+                return Err(e);
+            }
+        };
         sys.check_supported(&q)?;
         let n = sys.n();
         let m = &model.machine;
@@ -104,26 +111,50 @@ impl<'a> Simulator<'a> {
     }
 
     /// Advances one output interval (`substeps` RK4 steps) and returns the sensor reading at its
-    /// start, or the divergence found at its end.
+    /// start. The reading is checked before it is returned and the state after every RK4 step,
+    /// so a divergence is reported at the first sub-step where it shows (time and DOF) and no
+    /// non-finite value is ever returned as a sample.
     pub fn step(&mut self) -> StepResult {
         let reading = self.sensor();
-        for _ in 0..self.substeps {
-            self.rk4();
-        }
-        if let Some(i) = self.q.iter().zip(&self.v).position(|(q, v)| !q.is_finite() || !v.is_finite() || q.abs() > RUNAWAY_M) {
-            let what = if self.q[i].is_finite() && self.v[i].is_finite() { format!("displacement {:.3e} m beyond {RUNAWAY_M} m", self.q[i]) } else { "non-finite state".to_string() };
-            return StepResult::Diverged { t_s: self.t, dof: self.model.system.dof_names[i].clone(), what };
-        }
         if !reading.is_finite() {
             return StepResult::Diverged { t_s: self.t, dof: self.model.machine.sensor.dof.clone(), what: "non-finite sensor reading".into() };
+        }
+        for _ in 0..self.substeps {
+            self.rk4();
+            if let Some((i, what)) = self.divergence() {
+                return StepResult::Diverged { t_s: self.t, dof: self.model.system.dof_names[i].clone(), what };
+            }
         }
         StepResult::Sample(reading)
     }
 
-    /// Total mechanical energy of the linear springs and masses plus the work-free part of the
-    /// elements is not available in general; this returns the kinetic energy `½ Σ m v²`.
+    /// The DOF that diverged, if any: the first with a non-finite displacement or velocity, else
+    /// the one furthest beyond the runaway displacement.
+    fn divergence(&self) -> Option<(usize, String)> {
+        let mut worst: Option<(usize, f64)> = None;
+        for (i, (q, v)) in self.q.iter().zip(&self.v).enumerate() {
+            if !q.is_finite() || !v.is_finite() {
+                let what = if q.is_finite() { "non-finite velocity" } else { "non-finite displacement" };
+                return Some((i, what.to_string()));
+            }
+            if q.abs() > RUNAWAY_M && worst.is_none_or(|(_, w)| q.abs() > w) {
+                worst = Some((i, q.abs()));
+            }
+        }
+        worst.map(|(i, _)| (i, format!("displacement {:.3e} beyond the runaway limit {RUNAWAY_M} m", self.q[i])))
+    }
+
+    /// Kinetic energy `½ Σ m v²` of the current state, J.
     pub fn kinetic_energy(&self) -> f64 {
-        0.5 * self.model.system.mass.iter().zip(&self.v).map(|(m, v)| m * v * v).sum::<f64>()
+        self.model.system.kinetic_energy(&self.v)
+    }
+
+    /// Total mechanical energy `T + V` of the current state, J, or `None` if an element has no
+    /// potential (see [`System::potential_energy`](super::System::potential_energy)). Constant
+    /// along the trajectory (up to the integration error) when the model has no damping and no
+    /// explicit time dependence.
+    pub fn mechanical_energy(&self) -> Option<f64> {
+        self.model.system.mechanical_energy(self.t, &self.q, &self.v)
     }
 }
 

@@ -15,6 +15,17 @@ pub trait ForceElement: Send + Sync {
     /// Adds this element's forces at time `t` (s), displacements `q` (m or rad) and velocities
     /// `v` to `f` (N or N·m).
     fn add_forces(&self, t: f64, q: &[f64], v: &[f64], f: &mut [f64]);
+    /// Potential energy (J) of the element's velocity-independent forces at time `t`, frozen
+    /// in time: a `V(t, q)` with `−∂V/∂q = f(t, q, v = 0)` for the forces [`Self::add_forces`]
+    /// adds. `None` (the default) when the element cannot give one; then
+    /// [`System::potential_energy`] is `None` too. Damping is not included (it only dissipates).
+    ///
+    /// Energy is conserved along a trajectory only if `V` does not depend on `t` (e.g. a
+    /// bearing whose cage does not move, a gear mesh of constant stiffness, no order forces).
+    fn potential_energy(&self, t: f64, q: &[f64]) -> Option<f64> {
+        let _ = (t, q);
+        None
+    }
 }
 
 /// A linear spring–damper between DOF `a` and DOF `b` (or ground).
@@ -94,6 +105,41 @@ impl System {
         for (ai, m) in a.iter_mut().zip(&self.mass) {
             *ai /= m;
         }
+    }
+
+    /// Kinetic energy `½ Σ m_i v_i²`, J.
+    pub fn kinetic_energy(&self, v: &[f64]) -> f64 {
+        0.5 * self.mass.iter().zip(v).map(|(m, v)| m * v * v).sum::<f64>()
+    }
+
+    /// Potential energy at `(t, q)`, J: the linear springs `½ k (q_a − q_b)²`, the constant
+    /// external forces `−F · q`, and each element's [`ForceElement::potential_energy`] (Hertzian
+    /// contacts `K δ^(n+1)/(n+1)` per loaded ball, `½ k δ²` for linear contacts and the gear
+    /// mesh). `None` if an element has none.
+    ///
+    /// # Notes
+    /// The zero of potential is `q = 0` (and unloaded contacts). With the damping of springs
+    /// and elements set to zero and no explicit time dependence, `E = T + V` is a first
+    /// integral of [`System::accelerations`]: `dE/dt = v·(M a − F) = 0`.
+    pub fn potential_energy(&self, t: f64, q: &[f64]) -> Option<f64> {
+        let mut e = 0.0;
+        for s in &self.springs {
+            let dq = match s.b {
+                Some(b) => q[s.a] - q[b],
+                None => q[s.a],
+            };
+            e += 0.5 * s.k * dq * dq;
+        }
+        e -= self.static_force.iter().zip(q).map(|(f, q)| f * q).sum::<f64>();
+        for el in &self.elements {
+            e += el.potential_energy(t, q)?;
+        }
+        Some(e)
+    }
+
+    /// Total mechanical energy `T + V` at `(t, q, v)`, J (see [`System::potential_energy`]).
+    pub fn mechanical_energy(&self, t: f64, q: &[f64], v: &[f64]) -> Option<f64> {
+        Some(self.kinetic_energy(v) + self.potential_energy(t, q)?)
     }
 
     /// Linear stiffness matrix of the springs alone.
@@ -202,7 +248,8 @@ impl System {
     pub fn check_supported(&self, q: &[f64]) -> Result<(), ModelError> {
         let k = self.tangent_stiffness(0.0, q, 1e-9);
         for i in 0..self.n() {
-            if !(k[(i, i)] > 0.0) {
+            let kii = k[(i, i)];
+            if kii.is_nan() || kii <= 0.0 {
                 return Err(ModelError::NoEquilibrium(format!(
                     "DOF `{}` has no stiffness: support it with a bearing or a `[[coupling]]` to ground",
                     self.dof_names[i]
