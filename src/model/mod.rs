@@ -37,7 +37,15 @@ pub fn simulate(machine: &Machine) -> Result<Signal, ModelError> {
 }
 
 /// The bundled machine presets (`assets/machines/*.toml`), compiled into the binary.
-pub const PRESETS: [(&str, &str); 1] = [("cwru_6205_inner", include_str!("../../assets/machines/cwru_6205_inner.toml"))];
+pub const PRESETS: [(&str, &str); 7] = [
+    ("cwru_6205_inner", include_str!("../../assets/machines/cwru_6205_inner.toml")),
+    ("cwru_6205_outer", include_str!("../../assets/machines/cwru_6205_outer.toml")),
+    ("cwru_6205_ball", include_str!("../../assets/machines/cwru_6205_ball.toml")),
+    ("mfs_outer", include_str!("../../assets/machines/mfs_outer.toml")),
+    ("mfs_inner", include_str!("../../assets/machines/mfs_inner.toml")),
+    ("mfs_ball", include_str!("../../assets/machines/mfs_ball.toml")),
+    ("unsw_extended_inner", include_str!("../../assets/machines/unsw_extended_inner.toml")),
+];
 
 /// Loads a bundled machine preset by name.
 pub fn preset(name: &str) -> Result<Machine, ModelError> {
