@@ -226,7 +226,13 @@ impl Model {
                 let w = TAU * md.frequency_hz;
                 let d = sys.add_dof(format!("casing.mode{i}"), md.modal_mass_kg);
                 sys.add_spring(d, Some(attach), md.modal_mass_kg * w * w, 2.0 * md.damping_ratio * md.modal_mass_kg * w);
-                sensor.terms.push((d, md.gain * m.sensor.gain * unit_scale));
+                // The sensor sees the mode's own (fixed-interface) coordinate, the modal mass's
+                // motion relative to its attachment: the attachment's rigid motion is already in
+                // the sensor DOF, and adding the absolute acceleration would count it twice
+                // (+6 dB at every frequency below the mode).
+                let g = md.gain * m.sensor.gain * unit_scale;
+                sensor.terms.push((d, g));
+                sensor.terms.push((attach, -g));
             }
             q_guess.resize(sys.n(), 0.0);
         }

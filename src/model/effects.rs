@@ -112,13 +112,18 @@ pub struct CasingMode {
     pub damping_ratio: f64,
     /// Modal mass, kg.
     pub modal_mass_kg: f64,
-    /// Contribution of the mode's acceleration to the sensor signal.
+    /// Contribution of the mode's modal acceleration (relative to the DOF it hangs on) to the
+    /// sensor signal: the mode shape at the sensor.
     pub gain: f64,
 }
 
 /// Extra structural modes on the transfer path — what a Craig–Bampton casing adds to an LPM
 /// (Sawalhi, Deshpande & Randall 2011). Each mode is a modal mass sprung to the sensor bearing's
-/// pedestal; its acceleration adds to the sensor. A PSD band appears at each mode.
+/// pedestal; its modal acceleration (relative to that pedestal, the fixed-interface mode's
+/// coordinate) adds to the sensor, times `gain`. A PSD band appears at each mode; well below
+/// it the sensor is unchanged. Well above it the modal coordinate tends to minus the
+/// pedestal's motion, so a mode passes `−gain ×` the pedestal acceleration there (the
+/// truncation residual of any modal superposition).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CasingModes {
