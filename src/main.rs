@@ -73,6 +73,36 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Find the physical effect the model lacks: calibrate, try every missing effect, rank them;
+    /// with --rounds N apply the best and repeat, keeping the history.
+    Diagnose {
+        /// Measured signal (.wav, .csv, .mat).
+        measured: PathBuf,
+        /// Machine description (TOML); or --preset.
+        #[arg(long, conflicts_with = "preset")]
+        machine: Option<PathBuf>,
+        /// A bundled machine preset.
+        #[arg(long)]
+        preset: Option<String>,
+        /// Channel/variable of the measured file.
+        #[arg(long)]
+        channel: Option<String>,
+        /// Demodulation band, Hz, e.g. `1800,3000`.
+        #[arg(long, value_delimiter = ',')]
+        band_hz: Option<Vec<f64>>,
+        /// Rounds of diagnose → apply best → re-compare.
+        #[arg(long, default_value_t = 1)]
+        rounds: usize,
+        /// Simulated duration per evaluation, s.
+        #[arg(long, default_value_t = 1.5)]
+        fit_duration_s: f64,
+        /// Write the ranking, residual map and history as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write the final machine (with the applied effects) as TOML.
+        #[arg(long)]
+        save_machine: Option<PathBuf>,
+    },
     /// Simulate a machine (TOML, or a bundled preset) and write the sensor signal (.wav or .csv).
     Simulate {
         /// Machine description (TOML); or use --preset.
@@ -135,6 +165,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, json.as_deref()),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => {
             eprintln!("twinscope: nothing to do. Try `twinscope --batch sample_data/demo_envelope.toml` or `twinscope --help`.");
@@ -335,6 +366,65 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
     }
     if let Some(p) = json {
         std::fs::write(p, serde_json::to_string_pretty(&serde_json::json!({ "comparison": cmp, "residual_map": map }))?)?;
+    }
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, rounds: usize, fit_duration_s: f64, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
+    use twinscope::compare::{self, LoopOptions};
+    use twinscope::model::{self, Machine};
+    let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
+    let m = match (machine, preset) {
+        (Some(p), _) => Machine::from_toml(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?, &p.display().to_string())?,
+        (None, Some(n)) => model::preset(&n)?,
+        (None, None) => anyhow::bail!("give --machine FILE or --preset NAME"),
+    };
+    let mut opts = LoopOptions { fit_duration_s, ..Default::default() };
+    anyhow::ensure!(fit_duration_s.is_finite() && fit_duration_s >= 0.2, "--fit-duration-s must be at least 0.2 s");
+    if let Some(b) = band_hz {
+        anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz");
+        opts.compare.envelope_band_hz = [b[0], b[1]];
+    }
+    let started = std::time::Instant::now();
+    let show = !quiet && std::io::stderr().is_terminal();
+    let progress = move |done: usize, total: usize| {
+        if show {
+            eprint!("\rtwinscope: trials {done}/{total}   ");
+        }
+    };
+    let (final_m, history, last) = compare::run_loop(&m, &meas, rounds, &opts, &progress)?;
+    if show {
+        eprintln!();
+    }
+    let cal = &last.calibration;
+    println!("calibration ({} evaluations): envelope NRMSE {:.1} % → {:.1} %; objective {:.1} → {:.1}; gain {:.3}", cal.evaluations, cal.envelope_nrmse_before, cal.envelope_nrmse_after, cal.objective_before, cal.objective_after, cal.gain);
+    for (p, v) in &cal.parameters {
+        println!("  {} = {:.6}", p.name(), v);
+    }
+    println!("\nwhere the calibrated model fails (envelope, share of squared error):");
+    for (f, s) in last.residual_map.envelope_families.iter().take(6) {
+        println!("  {f:<22} {s:6.1} %");
+    }
+    println!("\nmissing-effect ranking (last round):");
+    for (i, t) in last.trials.iter().enumerate() {
+        println!("{:>2}. {:<18} objective {:6.1} → {:6.1} ({:+5.0} %)  envelope NRMSE {:5.1} → {:5.1} %", i + 1, t.effect.name(), t.objective_before, t.objective_after, -t.reduction * 100.0, t.envelope_nrmse_before, t.envelope_nrmse_after);
+    }
+    println!("\nverdict: {}", last.verdict);
+    if history.len() > 1 || rounds > 1 {
+        println!("\nhistory:");
+        for r in &history {
+            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1}, applied: {}", r.round, r.envelope_nrmse, r.objective, r.applied.map(|k| k.name()).unwrap_or("-"));
+        }
+    }
+    if let Some(p) = json {
+        std::fs::write(p, serde_json::to_string_pretty(&serde_json::json!({ "history": history, "diagnosis": last, "final_machine": final_m }))?)?;
+    }
+    if let Some(p) = save_machine {
+        std::fs::write(p, final_m.to_toml())?;
+    }
+    if !quiet {
+        eprintln!("twinscope: diagnose took {:.1} s", started.elapsed().as_secs_f64());
     }
     Ok(())
 }

@@ -2,10 +2,14 @@
 //! Welch PSD in dB, SCF α-slices, time RMS), their metrics, and a residual map that says where
 //! the model fails.
 
+pub mod calibrate;
+pub mod diagnose;
 pub mod metrics;
 pub mod residual;
 
 pub use metrics::{metrics, pearson, xcorr_peak, Metrics, Normaliser};
+pub use calibrate::{evaluate, fit, objective, Fit, LoopError, LoopOptions, Param};
+pub use diagnose::{diagnose, diagnose_with, machine_families, run_loop, Diagnosis, EffectTrial, Round};
 pub use residual::{residual_map, ResidualItem, ResidualMap};
 
 use crate::dsp::{self, remez::BandpassSpec, spectrum::Spectrum};
@@ -209,79 +213,159 @@ fn unit_rms(x: &[f64]) -> Vec<f64> {
 /// transitions of 10 % of the band or 200 Hz, whichever is smaller), then the envelope spectrum
 /// over `envelope_spectrum_band_hz`.
 pub fn envelope_spectrum_for_compare(x: &[f64], fs_hz: f64, opts: &CompareOptions) -> Result<Spectrum, CompareError> {
+    let taps = envelope_filter(fs_hz, opts)?;
+    envelope_with_taps(x, fs_hz, &taps, opts)
+}
+
+fn envelope_filter(fs_hz: f64, opts: &CompareOptions) -> Result<Vec<f64>, CompareError> {
     let [lo, hi] = opts.envelope_band_hz;
     let tw = (0.1 * (hi - lo)).min(200.0).max(1.0);
     let spec = BandpassSpec { pass_band_hz: [lo, hi], transition_low_hz: tw, transition_high_hz: tw, ..BandpassSpec::default() };
-    let (y, _) = dsp::remez::bandpass_zero_phase(&unit_rms(x), fs_hz, &spec).map_err(dsp_err("envelope bandpass"))?;
+    Ok(dsp::remez::design_bandpass(&spec, fs_hz).map_err(dsp_err("envelope bandpass"))?.taps)
+}
+
+fn envelope_with_taps(x: &[f64], fs_hz: f64, taps: &[f64], opts: &CompareOptions) -> Result<Spectrum, CompareError> {
+    let y = dsp::remez::filtfilt_fir(taps, &unit_rms(x)).map_err(dsp_err("envelope bandpass"))?;
     let p = dsp::envelope::EnvelopeParams { band_hz: Some(opts.envelope_spectrum_band_hz), ..Default::default() };
     dsp::envelope::envelope_spectrum(&y, fs_hz, &p).map_err(dsp_err("envelope spectrum"))
 }
 
+/// The measured side of a comparison, computed once per common length and reused for every
+/// simulated candidate (the loop compares hundreds of simulations with one measurement).
+pub struct Reference {
+    measured: Signal,
+    opts: CompareOptions,
+    taps: Vec<f64>,
+    cache: std::sync::Mutex<Vec<(usize, std::sync::Arc<MeasuredDomains>)>>,
+}
+
+struct MeasuredDomains {
+    envelope: Spectrum,
+    psd: Spectrum,
+    psd_db: Vec<f64>,
+    scf_params: Option<dsp::scf::ScfParams>,
+    slices: Vec<(&'static str, f64, Vec<f64>, Vec<f64>)>,
+}
+
+impl Reference {
+    /// Prepares the measured side (designs the envelope filter).
+    pub fn new(measured: &Signal, opts: &CompareOptions) -> Result<Self, CompareError> {
+        let taps = envelope_filter(measured.fs_hz, opts)?;
+        Ok(Self { measured: measured.clone(), opts: opts.clone(), taps, cache: std::sync::Mutex::new(Vec::new()) })
+    }
+
+    /// The measured signal.
+    pub fn measured(&self) -> &Signal {
+        &self.measured
+    }
+
+    /// The options.
+    pub fn options(&self) -> &CompareOptions {
+        &self.opts
+    }
+
+    fn domains(&self, meas: &[f64]) -> Result<std::sync::Arc<MeasuredDomains>, CompareError> {
+        let n = meas.len();
+        if let Some((_, d)) = self.cache.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(k, _)| *k == n) {
+            return Ok(d.clone());
+        }
+        let fs = self.measured.fs_hz;
+        let opts = &self.opts;
+        let envelope = envelope_with_taps(meas, fs, &self.taps, opts)?;
+        let wp = dsp::welch::WelchParams { nperseg: opts.psd_nperseg.min(n), ..Default::default() };
+        let pm = dsp::welch::welch_psd(meas, fs, &wp).map_err(dsp_err("psd"))?.to_spectrum(&self.measured.unit);
+        let [plo, phi] = opts.psd_band_hz.unwrap_or([0.0, fs / 2.0]);
+        let psd = pm.band(plo, phi).map_err(dsp_err("psd band"))?;
+        let psd_db = psd.values.iter().map(|v| db(*v)).collect();
+        let (mut scf_params, mut slices) = (None, Vec::new());
+        if opts.scf {
+            let mut alphas = vec![("scf_alpha_0", 0.0)];
+            if let Some(fr) = self.measured.meta.shaft_speed_hz {
+                alphas.push(("scf_alpha_shaft", fr));
+            }
+            if let Some(ff) = opts.fault_frequency_hz {
+                alphas.push(("scf_alpha_fault", ff));
+            }
+            let amax = alphas.iter().map(|a| a.1).fold(0.0f64, f64::max) * 1.02 + 1.0;
+            let p = dsp::scf::ScfParams { alpha_min_hz: 0.0, alpha_max_hz: amax.min(fs / 2.0), nperseg: opts.scf_nperseg, ..Default::default() };
+            let sm = dsp::scf::fast_scf(&unit_rms(meas), fs, &p).map_err(dsp_err("scf"))?;
+            for (name, alpha) in alphas {
+                let (f, a) = sm.alpha_slice(alpha).map_err(dsp_err(name))?;
+                slices.push((name, alpha, f, a));
+            }
+            scf_params = Some(p);
+        }
+        let d = std::sync::Arc::new(MeasuredDomains { envelope, psd, psd_db, scf_params, slices });
+        self.cache.lock().unwrap_or_else(|e| e.into_inner()).push((n, d.clone()));
+        Ok(d)
+    }
+
+    /// Compares a simulated signal with the measurement.
+    pub fn compare(&self, simulated: &Signal) -> Result<Comparison, CompareError> {
+        let opts = &self.opts;
+        let (meas, sim, al) = align(&self.measured, simulated, opts)?;
+        let md = self.domains(&meas)?;
+        let fs = al.fs_hz;
+        let max_lag = 20;
+        let mut domains = Vec::new();
+
+        let es = envelope_with_taps(&sim, fs, &self.taps, opts)?;
+        let es_on = onto_axis(&md.envelope, &es, al.speed_ratio);
+        domains.push(DomainComparison {
+            domain: "envelope".into(),
+            quantity: "envelope spectrum of the unit-RMS signal".into(),
+            metrics: metrics(&md.envelope.values, &es_on, opts.normaliser, max_lag),
+            frequency_hz: md.envelope.frequency_hz.clone(),
+            measured: md.envelope.values.clone(),
+            simulated: es_on,
+        });
+
+        let wp = dsp::welch::WelchParams { nperseg: opts.psd_nperseg.min(sim.len()), ..Default::default() };
+        let ps = dsp::welch::welch_psd(&sim, fs, &wp).map_err(dsp_err("psd"))?.to_spectrum(&self.measured.unit);
+        let ps_on = onto_axis(&md.psd, &ps, al.speed_ratio);
+        let ps_db: Vec<f64> = ps_on.iter().map(|v| db(*v)).collect();
+        domains.push(DomainComparison {
+            domain: "psd_db".into(),
+            quantity: format!("Welch PSD, dB re 1 {}²/Hz", self.measured.unit),
+            metrics: metrics(&md.psd_db, &ps_db, opts.normaliser, max_lag),
+            frequency_hz: md.psd.frequency_hz.clone(),
+            measured: md.psd_db.clone(),
+            simulated: ps_db,
+        });
+
+        if let Some(p) = &md.scf_params {
+            let ss = dsp::scf::fast_scf(&unit_rms(&sim), fs, p).map_err(dsp_err("scf"))?;
+            for (name, alpha, f, a) in &md.slices {
+                let (_, b) = ss.alpha_slice(alpha / al.speed_ratio).map_err(dsp_err(name))?;
+                domains.push(DomainComparison {
+                    domain: (*name).into(),
+                    quantity: format!("|S(α = {alpha:.2} Hz, f)| of the unit-RMS signal"),
+                    metrics: metrics(a, &b, opts.normaliser, 0),
+                    frequency_hz: f.clone(),
+                    measured: a.clone(),
+                    simulated: b,
+                });
+            }
+        }
+        Ok(Comparison { alignment: al, domains })
+    }
+}
+
+fn db(v: f64) -> f64 {
+    10.0 * v.max(1e-30).log10()
+}
+
+/// Applies a gain of `offset_db` to the simulated signal of a comparison after the fact: only
+/// the PSD (absolute level) changes; the envelope and SCF domains use unit-RMS signals.
+pub fn apply_gain_db(c: &mut Comparison, offset_db: f64, opts: &CompareOptions) {
+    for d in c.domains.iter_mut().filter(|d| d.domain == "psd_db") {
+        d.simulated.iter_mut().for_each(|v| *v += offset_db);
+        d.metrics = metrics(&d.measured, &d.simulated, opts.normaliser, 20);
+    }
+    c.alignment.rms_ratio_db += offset_db;
+}
+
 /// Compares `simulated` with `measured` in every domain.
 pub fn compare(measured: &Signal, simulated: &Signal, opts: &CompareOptions) -> Result<Comparison, CompareError> {
-    let (meas, sim, al) = align(measured, simulated, opts)?;
-    let fs = al.fs_hz;
-    let mut domains = Vec::new();
-    let max_lag = 20;
-
-    // Envelope spectrum.
-    let em = envelope_spectrum_for_compare(&meas, fs, opts)?;
-    let es = envelope_spectrum_for_compare(&sim, fs, opts)?;
-    let es_on = onto_axis(&em, &es, al.speed_ratio);
-    domains.push(DomainComparison {
-        domain: "envelope".into(),
-        quantity: "envelope spectrum of the unit-RMS signal".into(),
-        metrics: metrics(&em.values, &es_on, opts.normaliser, max_lag),
-        frequency_hz: em.frequency_hz.clone(),
-        measured: em.values,
-        simulated: es_on,
-    });
-
-    // Welch PSD in dB.
-    let wp = dsp::welch::WelchParams { nperseg: opts.psd_nperseg.min(meas.len()), ..Default::default() };
-    let pm = dsp::welch::welch_psd(&meas, fs, &wp).map_err(dsp_err("psd"))?.to_spectrum(&measured.unit);
-    let ps = dsp::welch::welch_psd(&sim, fs, &wp).map_err(dsp_err("psd"))?.to_spectrum(&measured.unit);
-    let [plo, phi] = opts.psd_band_hz.unwrap_or([0.0, fs / 2.0]);
-    let pm = pm.band(plo, phi).map_err(dsp_err("psd band"))?;
-    let ps_on = onto_axis(&pm, &ps, al.speed_ratio);
-    let db = |v: f64| 10.0 * v.max(1e-30).log10();
-    let pm_db: Vec<f64> = pm.values.iter().map(|v| db(*v)).collect();
-    let ps_db: Vec<f64> = ps_on.iter().map(|v| db(*v)).collect();
-    domains.push(DomainComparison {
-        domain: "psd_db".into(),
-        quantity: format!("Welch PSD, dB re 1 {}²/Hz", measured.unit),
-        metrics: metrics(&pm_db, &ps_db, opts.normaliser, max_lag),
-        frequency_hz: pm.frequency_hz.clone(),
-        measured: pm_db,
-        simulated: ps_db,
-    });
-
-    // SCF α-slices at 0, the shaft speed and the fault frequency.
-    if opts.scf {
-        let mut alphas = vec![("scf_alpha_0", 0.0)];
-        if let Some(fr) = measured.meta.shaft_speed_hz {
-            alphas.push(("scf_alpha_shaft", fr));
-        }
-        if let Some(ff) = opts.fault_frequency_hz {
-            alphas.push(("scf_alpha_fault", ff));
-        }
-        let amax = alphas.iter().map(|a| a.1).fold(0.0f64, f64::max) * 1.02 + 1.0;
-        let p = dsp::scf::ScfParams { alpha_min_hz: 0.0, alpha_max_hz: amax.min(fs / 2.0), nperseg: opts.scf_nperseg, ..Default::default() };
-        let (mu, su) = (unit_rms(&meas), unit_rms(&sim));
-        let sm = dsp::scf::fast_scf(&mu, fs, &p).map_err(dsp_err("scf"))?;
-        let ss = dsp::scf::fast_scf(&su, fs, &p).map_err(dsp_err("scf"))?;
-        for (name, alpha) in alphas {
-            let (f, a) = sm.alpha_slice(alpha).map_err(dsp_err(name))?;
-            let (_, b) = ss.alpha_slice(alpha / al.speed_ratio).map_err(dsp_err(name))?;
-            domains.push(DomainComparison {
-                domain: name.into(),
-                quantity: format!("|S(α = {alpha:.2} Hz, f)| of the unit-RMS signal"),
-                metrics: metrics(&a, &b, opts.normaliser, 0),
-                frequency_hz: f,
-                measured: a,
-                simulated: b,
-            });
-        }
-    }
-    Ok(Comparison { alignment: al, domains })
+    Reference::new(measured, opts)?.compare(simulated)
 }

@@ -32,6 +32,8 @@ pub struct Simulator<'a> {
     k: [Vec<f64>; 8],
     tmp_q: Vec<f64>,
     tmp_v: Vec<f64>,
+    /// Sensor reading at the start of the last RK4 step (from its first stage).
+    k1_reading: f64,
 }
 
 /// Displacement beyond which a DOF is taken as run away (a bearing model moves microns).
@@ -62,6 +64,7 @@ impl<'a> Simulator<'a> {
             k: std::array::from_fn(|_| vec![0.0; n]),
             tmp_q: vec![0.0; n],
             tmp_v: vec![0.0; n],
+            k1_reading: 0.0,
         })
     }
 
@@ -85,6 +88,7 @@ impl<'a> Simulator<'a> {
         let [k1q, k1v, k2q, k2v, k3q, k3v, k4q, k4v] = &mut self.k;
         k1q.copy_from_slice(&self.v);
         sys.accelerations(t, &self.q, &self.v, k1v);
+        self.k1_reading = self.model.sensor.terms.iter().map(|(d, w)| w * k1v[*d]).sum();
         for i in 0..n {
             self.tmp_q[i] = self.q[i] + 0.5 * h * k1q[i];
             self.tmp_v[i] = self.v[i] + 0.5 * h * k1v[i];
@@ -115,12 +119,21 @@ impl<'a> Simulator<'a> {
     /// so a divergence is reported at the first sub-step where it shows (time and DOF) and no
     /// non-finite value is ever returned as a sample.
     pub fn step(&mut self) -> StepResult {
+        self.step_recording(None)
+    }
+
+    /// [`Simulator::step`], also appending the sensor reading at every sub-step (the internal
+    /// rate `fs · substeps`) to `fine`, for anti-alias decimation.
+    pub fn step_recording(&mut self, mut fine: Option<&mut Vec<f64>>) -> StepResult {
         let reading = self.sensor();
         if !reading.is_finite() {
             return StepResult::Diverged { t_s: self.t, dof: self.model.machine.sensor.dof.clone(), what: "non-finite sensor reading".into() };
         }
         for _ in 0..self.substeps {
             self.rk4();
+            if let Some(f) = fine.as_deref_mut() {
+                f.push(self.k1_reading);
+            }
             if let Some((i, what)) = self.divergence() {
                 return StepResult::Diverged { t_s: self.t, dof: self.model.system.dof_names[i].clone(), what };
             }
@@ -168,12 +181,17 @@ pub fn run(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Signa
     let n = (m.duration_s * m.fs_hz).round() as usize;
     let total = settle + n;
     let every = (total / 100).max(1);
-    let mut out = Vec::with_capacity(n);
+    // The sensor is recorded at the internal rate fs·substeps and decimated to fs through an
+    // ideal (Fourier) low-pass, as a data-acquisition front end's anti-alias filter would, so
+    // content above fs/2 (sprung-mass ringing, contact transients) does not fold back.
+    let sub = m.substeps;
+    let mut fine = Vec::with_capacity(n * sub);
     for i in 0..total {
-        match sim.step() {
+        let recording = i >= settle && sub > 1;
+        match sim.step_recording(if recording { Some(&mut fine) } else { None }) {
             StepResult::Sample(x) => {
-                if i >= settle {
-                    out.push(x);
+                if i >= settle && sub == 1 {
+                    fine.push(x);
                 }
             }
             StepResult::Diverged { t_s, dof, what } => return Err(ModelError::Diverged { t_s, dof, what }),
@@ -183,6 +201,11 @@ pub fn run(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Signa
         }
     }
     progress(1.0);
+    let out = if sub > 1 {
+        crate::dsp::resample::resample(&fine, m.fs_hz * sub as f64, m.fs_hz).map_err(|e| ModelError::Diverged { t_s: sim.t, dof: m.sensor.dof.clone(), what: format!("anti-alias decimation failed: {e}") })?
+    } else {
+        fine
+    };
     let y = post_process(&out, m.fs_hz, &model.post, m.seed);
     let mut s = Signal::new(y, m.fs_hz, format!("{} (simulated)", m.name), m.sensor.unit.clone());
     s.meta.shaft_speed_hz = model.shaft_speeds_hz.first().copied();

@@ -1,0 +1,450 @@
+//! Calibration: fit a model's free parameters to a measurement before asking what physics is
+//! missing, so a wrong parameter is not mistaken for a missing effect.
+//!
+//! Optimiser: cyclic coordinate descent with golden-section line searches (Kiefer 1953) on each
+//! parameter in turn, over its physical bounds (log scale for scale parameters), two sweeps.
+//! Each evaluation simulates the model for `fit_duration_s` and compares it with the
+//! measurement's first `fit_duration_s`. The overall gain is not searched: it is solved in
+//! closed form as the mean PSD level difference in dB.
+
+use super::{apply_gain_db, CompareError, CompareOptions, Comparison, Reference};
+use crate::model::{self, EffectKind, FaultLocation, Machine, ModelError};
+use serde::{Deserialize, Serialize};
+
+/// A fittable model parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Param {
+    /// `bearing[0].resonator_frequency_hz`.
+    ResonanceHz,
+    /// `bearing[0].resonator_damping_ratio`.
+    ResonanceDamping,
+    /// Depth of the first localised fault, m.
+    FaultDepthM,
+    /// `effects.noise.snr_db`.
+    NoiseSnrDb,
+    /// `effects.load_zone.radial_load_n`.
+    RadialLoadN,
+    /// `bearing[0].radial_clearance_m` (negative: preload); with the load it sets the load-zone
+    /// extent ε.
+    RadialClearanceM,
+    /// `effects.slip.percent`.
+    SlipPercent,
+    /// `effects.casing_modes.modes[0].frequency_hz`.
+    CasingModeHz,
+    /// `effects.gear_mesh.variation_fraction`.
+    MeshVariation,
+    /// `effects.tooth_fault.stiffness_loss_fraction`.
+    ToothLoss,
+    /// `effects.speed_fluctuation.amplitude_percent`.
+    SpeedFluctuationPercent,
+    /// `effects.sensor_response.bandwidth_hz`.
+    SensorBandwidthHz,
+    /// `effects.unbalance.mass_eccentricity_kg_m`.
+    UnbalanceKgM,
+    /// `effects.misalignment.force_2x_n`.
+    Misalignment2xN,
+    /// `effects.extended_fault.depth_m`.
+    ExtendedFaultDepthM,
+    /// `effects.path_modulation.depth`.
+    PathModulationDepth,
+    /// `effects.belt_drive.force_n`.
+    BeltForceN,
+}
+
+impl Param {
+    /// Name in reports (the TOML path).
+    pub fn name(self) -> &'static str {
+        match self {
+            Param::ResonanceHz => "bearing[0].resonator_frequency_hz",
+            Param::ResonanceDamping => "bearing[0].resonator_damping_ratio",
+            Param::FaultDepthM => "bearing[0].fault.depth_m",
+            Param::NoiseSnrDb => "effects.noise.snr_db",
+            Param::RadialLoadN => "effects.load_zone.radial_load_n",
+            Param::RadialClearanceM => "bearing[0].radial_clearance_m",
+            Param::SlipPercent => "effects.slip.percent",
+            Param::CasingModeHz => "effects.casing_modes.modes[0].frequency_hz",
+            Param::MeshVariation => "effects.gear_mesh.variation_fraction",
+            Param::ToothLoss => "effects.tooth_fault.stiffness_loss_fraction",
+            Param::SpeedFluctuationPercent => "effects.speed_fluctuation.amplitude_percent",
+            Param::SensorBandwidthHz => "effects.sensor_response.bandwidth_hz",
+            Param::UnbalanceKgM => "effects.unbalance.mass_eccentricity_kg_m",
+            Param::Misalignment2xN => "effects.misalignment.force_2x_n",
+            Param::ExtendedFaultDepthM => "effects.extended_fault.depth_m",
+            Param::PathModulationDepth => "effects.path_modulation.depth",
+            Param::BeltForceN => "effects.belt_drive.force_n",
+        }
+    }
+
+    /// Search bounds `(low, high, log_scale)` for machine `m`.
+    pub fn bounds(self, m: &Machine) -> (f64, f64, bool) {
+        let nyq = 0.45 * m.fs_hz;
+        match self {
+            Param::ResonanceHz => {
+                let f = m.bearings.first().map(|b| b.resonator_frequency_hz).unwrap_or(1000.0);
+                ((0.7 * f).max(100.0), (1.4 * f).min(nyq), true)
+            }
+            Param::ResonanceDamping => (0.01, 0.2, true),
+            Param::FaultDepthM => (5e-6, 3e-4, true),
+            Param::NoiseSnrDb => (-10.0, 40.0, false),
+            Param::RadialLoadN => (2.0, 5000.0, true),
+            Param::RadialClearanceM => (-15e-6, 15e-6, false),
+            Param::SlipPercent => (0.2, 8.0, true),
+            Param::CasingModeHz => (300.0, nyq, true),
+            Param::MeshVariation => (0.02, 0.8, true),
+            Param::ToothLoss => (0.05, 1.0, true),
+            Param::SpeedFluctuationPercent => (0.05, 8.0, true),
+            Param::SensorBandwidthHz => (300.0, nyq, true),
+            Param::UnbalanceKgM => (1e-6, 1e-2, true),
+            Param::Misalignment2xN => (0.1, 2000.0, true),
+            Param::ExtendedFaultDepthM => (2e-6, 2e-4, true),
+            Param::PathModulationDepth => (0.05, 1.0, false),
+            Param::BeltForceN => (0.1, 2000.0, true),
+        }
+    }
+
+    /// Current value, if the machine has the parameter.
+    pub fn get(self, m: &Machine) -> Option<f64> {
+        let e = &m.effects;
+        match self {
+            Param::ResonanceHz => m.bearings.first().map(|b| b.resonator_frequency_hz),
+            Param::ResonanceDamping => m.bearings.first().map(|b| b.resonator_damping_ratio),
+            Param::FaultDepthM => m.bearings.iter().find_map(|b| b.fault.as_ref().map(|f| f.depth_m)),
+            Param::NoiseSnrDb => e.noise.as_ref().map(|x| x.snr_db),
+            Param::RadialLoadN => e.load_zone.as_ref().map(|x| x.radial_load_n),
+            Param::RadialClearanceM => m.bearings.first().map(|b| b.radial_clearance_m),
+            Param::SlipPercent => e.slip.as_ref().map(|x| x.percent),
+            Param::CasingModeHz => e.casing_modes.as_ref().and_then(|x| x.modes.first()).map(|md| md.frequency_hz),
+            Param::MeshVariation => e.gear_mesh.as_ref().map(|x| x.variation_fraction),
+            Param::ToothLoss => e.tooth_fault.as_ref().map(|x| x.stiffness_loss_fraction),
+            Param::SpeedFluctuationPercent => e.speed_fluctuation.as_ref().map(|x| x.amplitude_percent),
+            Param::SensorBandwidthHz => e.sensor_response.as_ref().map(|x| x.bandwidth_hz),
+            Param::UnbalanceKgM => e.unbalance.as_ref().map(|x| x.mass_eccentricity_kg_m),
+            Param::Misalignment2xN => e.misalignment.as_ref().map(|x| x.force_2x_n),
+            Param::ExtendedFaultDepthM => e.extended_fault.as_ref().map(|x| x.depth_m),
+            Param::PathModulationDepth => e.path_modulation.as_ref().map(|x| x.depth),
+            Param::BeltForceN => e.belt_drive.as_ref().map(|x| x.force_n),
+        }
+    }
+
+    /// Sets the value (no effect if the machine lacks the parameter).
+    pub fn set(self, m: &mut Machine, v: f64) {
+        let e = &mut m.effects;
+        match self {
+            Param::ResonanceHz => {
+                if let Some(b) = m.bearings.first_mut() {
+                    b.resonator_frequency_hz = v
+                }
+            }
+            Param::ResonanceDamping => {
+                if let Some(b) = m.bearings.first_mut() {
+                    b.resonator_damping_ratio = v
+                }
+            }
+            Param::FaultDepthM => {
+                if let Some(f) = m.bearings.iter_mut().find_map(|b| b.fault.as_mut()) {
+                    f.depth_m = v
+                }
+            }
+            Param::NoiseSnrDb => {
+                if let Some(x) = e.noise.as_mut() {
+                    x.snr_db = v
+                }
+            }
+            Param::RadialLoadN => {
+                if let Some(x) = e.load_zone.as_mut() {
+                    x.radial_load_n = v
+                }
+            }
+            Param::RadialClearanceM => {
+                if let Some(b) = m.bearings.first_mut() {
+                    b.radial_clearance_m = v
+                }
+            }
+            Param::SlipPercent => {
+                if let Some(x) = e.slip.as_mut() {
+                    x.percent = v
+                }
+            }
+            Param::CasingModeHz => {
+                if let Some(md) = e.casing_modes.as_mut().and_then(|x| x.modes.first_mut()) {
+                    md.frequency_hz = v
+                }
+            }
+            Param::MeshVariation => {
+                if let Some(x) = e.gear_mesh.as_mut() {
+                    x.variation_fraction = v
+                }
+            }
+            Param::ToothLoss => {
+                if let Some(x) = e.tooth_fault.as_mut() {
+                    x.stiffness_loss_fraction = v
+                }
+            }
+            Param::SpeedFluctuationPercent => {
+                if let Some(x) = e.speed_fluctuation.as_mut() {
+                    x.amplitude_percent = v
+                }
+            }
+            Param::SensorBandwidthHz => {
+                if let Some(x) = e.sensor_response.as_mut() {
+                    x.bandwidth_hz = v
+                }
+            }
+            Param::UnbalanceKgM => {
+                if let Some(x) = e.unbalance.as_mut() {
+                    x.mass_eccentricity_kg_m = v
+                }
+            }
+            Param::Misalignment2xN => {
+                if let Some(x) = e.misalignment.as_mut() {
+                    x.force_2x_n = v
+                }
+            }
+            Param::ExtendedFaultDepthM => {
+                if let Some(x) = e.extended_fault.as_mut() {
+                    x.depth_m = v
+                }
+            }
+            Param::PathModulationDepth => {
+                if let Some(x) = e.path_modulation.as_mut() {
+                    x.depth = v
+                }
+            }
+            Param::BeltForceN => {
+                if let Some(x) = e.belt_drive.as_mut() {
+                    x.force_n = v
+                }
+            }
+        }
+    }
+
+    /// The parameters an effect's trial fits (empty: a pure switch).
+    pub fn of_effect(k: EffectKind) -> Vec<Param> {
+        if k == EffectKind::LoadZone {
+            return vec![Param::RadialLoadN, Param::RadialClearanceM];
+        }
+        Self::main_of_effect(k).into_iter().collect()
+    }
+
+    /// The main parameter of an effect (reported with the trial).
+    pub fn main_of_effect(k: EffectKind) -> Option<Param> {
+        Some(match k {
+            EffectKind::LoadZone => Param::RadialLoadN,
+            EffectKind::Slip => Param::SlipPercent,
+            EffectKind::CasingModes => Param::CasingModeHz,
+            EffectKind::GearMesh => Param::MeshVariation,
+            EffectKind::ToothFault => Param::ToothLoss,
+            EffectKind::SpeedFluctuation => Param::SpeedFluctuationPercent,
+            EffectKind::SensorResponse => Param::SensorBandwidthHz,
+            EffectKind::Unbalance => Param::UnbalanceKgM,
+            EffectKind::Misalignment => Param::Misalignment2xN,
+            EffectKind::ExtendedFault => Param::ExtendedFaultDepthM,
+            EffectKind::PathModulation => Param::PathModulationDepth,
+            EffectKind::BeltDrive => Param::BeltForceN,
+            EffectKind::Noise => Param::NoiseSnrDb,
+            EffectKind::NonlinearContact => return None,
+        })
+    }
+}
+
+/// Errors of calibration and diagnosis.
+#[derive(Debug, thiserror::Error)]
+pub enum LoopError {
+    /// The model failed.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// The comparison failed.
+    #[error(transparent)]
+    Compare(#[from] CompareError),
+    /// Cancelled by the caller.
+    #[error("cancelled")]
+    Cancelled,
+}
+
+/// Settings of the loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LoopOptions {
+    /// The comparison.
+    pub compare: CompareOptions,
+    /// Simulated (and compared) duration during fitting, s. Default 1.5.
+    pub fit_duration_s: f64,
+    /// Golden-section evaluations per parameter and sweep. Default 9.
+    pub evaluations_per_parameter: usize,
+    /// Coordinate-descent sweeps in calibration. Default 2.
+    pub sweeps: usize,
+    /// Weight of each domain in the objective: envelope, PSD dB, SCF slices. Default 1, 0.5, 0.25.
+    pub weights: [f64; 3],
+    /// Relative error reduction below which an effect is "not significant". Default 0.15.
+    pub significance: f64,
+}
+
+impl Default for LoopOptions {
+    fn default() -> Self {
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.15 }
+    }
+}
+
+/// The objective: weighted NRMSE over domains (%).
+pub fn objective(c: &Comparison, w: &[f64; 3]) -> f64 {
+    let mut j = 0.0;
+    for d in &c.domains {
+        let wt = match d.domain.as_str() {
+            "envelope" => w[0],
+            "psd_db" => w[1],
+            _ => w[2],
+        };
+        if d.metrics.nrmse_percent.is_finite() {
+            j += wt * d.metrics.nrmse_percent;
+        }
+    }
+    j
+}
+
+/// Simulates `m` for the fit duration, applies the closed-form gain (mean PSD dB offset), and
+/// compares. Returns the comparison and the gain applied.
+pub fn evaluate(m: &Machine, reference: &Reference, opts: &LoopOptions) -> Result<(Comparison, f64), LoopError> {
+    let mut mm = m.clone();
+    mm.duration_s = opts.fit_duration_s.min(reference.measured().duration_s());
+    let sim = model::simulate(&mm)?;
+    let mut c = reference.compare(&sim)?;
+    let off_db = c
+        .domain("psd_db")
+        .map(|d| d.measured.iter().zip(&d.simulated).map(|(a, b)| a - b).sum::<f64>() / d.measured.len().max(1) as f64)
+        .unwrap_or(0.0);
+    if !off_db.is_finite() {
+        return Ok((c, 1.0));
+    }
+    // PSD offset in dB of power: the amplitude gain is 10^(off/20).
+    apply_gain_db(&mut c, off_db, reference.options());
+    Ok((c, 10f64.powf(off_db / 20.0)))
+}
+
+/// Result of fitting.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Fit {
+    /// Fitted parameter values.
+    pub parameters: Vec<(Param, f64)>,
+    /// Gain applied to the output (closed form).
+    pub gain: f64,
+    /// Objective before and after.
+    pub objective_before: f64,
+    pub objective_after: f64,
+    /// Envelope NRMSE (%) before and after.
+    pub envelope_nrmse_before: f64,
+    pub envelope_nrmse_after: f64,
+    /// Evaluations used.
+    pub evaluations: usize,
+}
+
+/// Golden-section search of `f` over `[a, b]` with `evals` evaluations, starting bracket known
+/// to contain the current value `x0` (evaluated as `f0`); returns the best point seen.
+fn golden(mut f: impl FnMut(f64) -> f64, a: f64, b: f64, evals: usize, x0: f64, f0: f64) -> (f64, f64) {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut lo, mut hi) = (a, b);
+    let mut x1 = hi - g * (hi - lo);
+    let mut x2 = lo + g * (hi - lo);
+    let mut f1 = f(x1);
+    let mut f2 = f(x2);
+    let mut best = if f0 <= f1.min(f2) { (x0, f0) } else if f1 <= f2 { (x1, f1) } else { (x2, f2) };
+    for _ in 2..evals {
+        if f1 <= f2 {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = f(x1);
+            if f1 < best.1 {
+                best = (x1, f1);
+            }
+        } else {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = f(x2);
+            if f2 < best.1 {
+                best = (x2, f2);
+            }
+        }
+    }
+    best
+}
+
+/// Fits `params` of `m` to `measured` (see the module doc). Parameters the machine lacks are
+/// skipped. Returns the fitted machine and the fit report.
+pub fn fit(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, opts: &LoopOptions) -> Result<(Machine, Fit), LoopError> {
+    let (c0, g0) = evaluate(m, reference, opts)?;
+    let j0 = objective(&c0, &opts.weights);
+    let mut best_m = m.clone();
+    let mut best_j = j0;
+    let mut best_c = c0.clone();
+    let mut best_g = g0;
+    let mut evals = 1usize;
+    let params: Vec<Param> = params.iter().copied().filter(|p| p.get(m).is_some()).collect();
+    for _ in 0..sweeps {
+        for &p in &params {
+            let (lo, hi, log) = p.bounds(&best_m);
+            let to = |u: f64| if log { u.exp() } else { u };
+            let from = |x: f64| if log { x.max(1e-300).ln() } else { x };
+            let x0 = p.get(&best_m).unwrap_or(lo).clamp(lo, hi);
+            let mut cache: Vec<(f64, f64, Comparison, f64)> = Vec::new();
+            let base = best_m.clone();
+            let (u, j) = golden(
+                |u| {
+                    let mut t = base.clone();
+                    p.set(&mut t, to(u));
+                    evals += 1;
+                    match evaluate(&t, reference, opts) {
+                        Ok((c, g)) => {
+                            let j = objective(&c, &opts.weights);
+                            cache.push((u, j, c, g));
+                            j
+                        }
+                        Err(_) => f64::INFINITY,
+                    }
+                },
+                from(lo),
+                from(hi),
+                opts.evaluations_per_parameter.max(3),
+                from(x0),
+                best_j,
+            );
+            if j < best_j {
+                p.set(&mut best_m, to(u));
+                best_j = j;
+                if let Some((_, _, c, g)) = cache.into_iter().find(|e| e.0 == u) {
+                    best_c = c;
+                    best_g = g;
+                }
+            }
+        }
+    }
+    let fitted: Vec<(Param, f64)> = params.iter().filter_map(|p| p.get(&best_m).map(|v| (*p, v))).collect();
+    Ok((
+        best_m,
+        Fit {
+            parameters: fitted,
+            gain: best_g,
+            objective_before: j0,
+            objective_after: best_j,
+            envelope_nrmse_before: c0.envelope_nrmse(),
+            envelope_nrmse_after: best_c.envelope_nrmse(),
+            evaluations: evals,
+        },
+    ))
+}
+
+/// The calibration parameters of the current model: resonance frequency and damping, fault
+/// severity, noise level (when the noise effect is on). The gain is always solved.
+pub fn calibration_parameters(m: &Machine) -> Vec<Param> {
+    let mut v = vec![Param::ResonanceHz, Param::ResonanceDamping];
+    if m.bearings.iter().any(|b| b.fault.as_ref().is_some_and(|f| f.location != FaultLocation::Ball) || b.fault.is_some()) {
+        v.push(Param::FaultDepthM);
+    }
+    if m.effects.noise.is_some() {
+        v.push(Param::NoiseSnrDb);
+    }
+    v
+}

@@ -1,0 +1,272 @@
+//! Finding the missing physical effect: for every effect the current model lacks, combine the
+//! evidence in the residual map for that effect's signature with a trial — switch it on, fit
+//! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
+
+use super::calibrate::{calibration_parameters, evaluate, fit, objective, Fit, LoopError, LoopOptions, Param};
+use super::residual::{residual_map, ResidualMap};
+use super::{Comparison, Reference};
+use crate::kinematics::CharacteristicFrequency;
+use crate::model::{EffectKind, Effects, Machine};
+use crate::signal::Signal;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// The trial of one effect.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EffectTrial {
+    /// The effect.
+    pub effect: EffectKind,
+    /// Fitted main parameter and value (None for a pure switch).
+    pub parameter: Option<(Param, f64)>,
+    /// Other fitted parameters (e.g. the clearance for `load_zone`).
+    pub extra_parameters: Vec<(Param, f64)>,
+    /// Objective (weighted NRMSE, %) without and with the effect.
+    pub objective_before: f64,
+    pub objective_after: f64,
+    /// Envelope NRMSE (%) without and with the effect.
+    pub envelope_nrmse_before: f64,
+    pub envelope_nrmse_after: f64,
+    /// Relative objective reduction, 0–1 (negative: worse).
+    pub reduction: f64,
+    /// Evidence from the residual map for this effect's signature.
+    pub evidence: String,
+    /// One sentence for the user.
+    pub summary: String,
+}
+
+/// The answer of [`diagnose`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Diagnosis {
+    /// The calibration done first.
+    pub calibration: Fit,
+    /// Metrics of the calibrated model per domain: (domain, Pearson, NRMSE %).
+    pub domains: Vec<(String, f64, f64)>,
+    /// Where the calibrated model fails.
+    pub residual_map: ResidualMap,
+    /// Trials, best first.
+    pub trials: Vec<EffectTrial>,
+    /// The effect to add, if one is significant.
+    pub best: Option<EffectKind>,
+    /// `"<effect>: <summary>"` or `"nothing significant is missing"`.
+    pub verdict: String,
+}
+
+/// Characteristic frequencies of a machine at its speed: shaft, bearing fault families of the
+/// first bearing, GMF of each gear pair.
+pub fn machine_families(m: &Machine) -> (Vec<CharacteristicFrequency>, Option<f64>) {
+    let speeds = m.shaft_speeds_hz().unwrap_or_default();
+    let mut fams = Vec::new();
+    let mut shaft = speeds.first().copied();
+    if let Some(b) = m.bearings.first() {
+        if let (Ok(g), Some(si)) = (m.bearing_geometry(0), m.shaft_index(&b.shaft)) {
+            if let Ok(ff) = g.fault_frequencies(speeds[si]) {
+                fams.extend(ff.families());
+                shaft = Some(speeds[si]);
+            }
+        }
+    }
+    if fams.is_empty() {
+        if let Some(fr) = shaft {
+            fams.push(CharacteristicFrequency { label: "shaft".into(), frequency_hz: fr });
+        }
+    }
+    for gp in &m.gear_pairs {
+        if let Some(pi) = m.shaft_index(&gp.pinion_shaft) {
+            fams.push(CharacteristicFrequency { label: "GMF".into(), frequency_hz: speeds[pi] * gp.pinion_teeth as f64 });
+        }
+    }
+    (fams, shaft)
+}
+
+/// What in the residual map speaks for an effect, in words, with the share it carries.
+fn evidence(k: EffectKind, map: &ResidualMap) -> (String, f64) {
+    let env_items = |pred: &dyn Fn(&str) -> bool| -> (f64, Option<String>) {
+        let share: f64 = map.envelope_families.iter().filter(|(f, _)| pred(f)).map(|(_, s)| s).sum();
+        let top = map.items.iter().find(|i| i.kind == "envelope_line" && pred(&i.family)).map(|i| format!("{} ({:.1} Hz): {}", i.label, i.frequency_hz, i.note));
+        (share, top)
+    };
+    let psd_top = |want_weak: bool| -> (f64, Option<String>) {
+        let mut items: Vec<_> = map.items.iter().filter(|i| i.kind == "psd_band" && (i.simulated < i.measured) == want_weak).collect();
+        items.sort_by(|a, b| b.share_percent.total_cmp(&a.share_percent));
+        let share = items.iter().map(|i| i.share_percent).sum::<f64>();
+        (share, items.first().map(|i| format!("PSD band {} {:+.1} dB in the model", i.label, i.simulated - i.measured)))
+    };
+    let (share, what, domain) = match k {
+        EffectKind::LoadZone => {
+            let (s, t) = env_items(&|f| f.ends_with("± shaft") || f == "shaft harmonics");
+            (s, t, "envelope")
+        }
+        EffectKind::Slip | EffectKind::SpeedFluctuation => {
+            let (s, t) = env_items(&|f| f == "unlabelled envelope" || (!f.contains('±') && f != "shaft harmonics"));
+            (s, t, "envelope")
+        }
+        EffectKind::GearMesh | EffectKind::ToothFault => {
+            let (s, t) = env_items(&|f| f.starts_with("GMF"));
+            (s, t, "envelope")
+        }
+        EffectKind::Unbalance | EffectKind::Misalignment | EffectKind::ExtendedFault | EffectKind::PathModulation => {
+            let (s, t) = env_items(&|f| f == "shaft harmonics");
+            (s, t, "envelope")
+        }
+        EffectKind::BeltDrive => {
+            let (s, t) = env_items(&|f| f == "unlabelled envelope");
+            (s, t, "envelope")
+        }
+        EffectKind::CasingModes | EffectKind::Noise => {
+            let (s, t) = psd_top(true);
+            (s, t, "PSD")
+        }
+        EffectKind::SensorResponse => {
+            let (s, t) = psd_top(false);
+            (s, t, "PSD")
+        }
+        EffectKind::NonlinearContact => (0.0, None, "envelope"),
+    };
+    let text = match what {
+        Some(t) => format!("{t}; its signature carries {share:.0} % of the {domain} error"),
+        None => format!("no specific signature in the residual map ({share:.0} % of the {domain} error)"),
+    };
+    (text, share)
+}
+
+/// Calibrates the model, then tries every applicable effect it lacks (in parallel), and ranks
+/// them. Returns the calibrated machine and the diagnosis. `progress(done, total)` reports
+/// finished trials.
+pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<(Machine, Diagnosis), LoopError> {
+    let reference = Reference::new(measured, &opts.compare)?;
+    diagnose_with(m, &reference, opts, progress)
+}
+
+/// [`diagnose`] against a prepared [`Reference`].
+pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<(Machine, Diagnosis), LoopError> {
+    let measured = reference;
+    let (cal_m, cal) = fit(m, measured, &calibration_parameters(m), opts.sweeps, opts)?;
+    let (c, _) = evaluate(&cal_m, measured, opts)?;
+    let (fams, shaft) = machine_families(&cal_m);
+    let map = residual_map(&c, &fams, shaft);
+    let j0 = objective(&c, &opts.weights);
+    let env0 = c.envelope_nrmse();
+    let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !cal_m.effects.is_on(*k) && Effects::applicable(*k, &cal_m)).collect();
+    let total = candidates.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let trials: Vec<EffectTrial> = candidates
+        .par_iter()
+        .filter_map(|&k| {
+            let mut t = cal_m.clone();
+            t.effects.enable(k);
+            if k == EffectKind::PathModulation {
+                // A physical default for the unknown modulation rate: the shaft speed.
+                if let (Some(pm), Some(fr)) = (t.effects.path_modulation.as_mut(), shaft) {
+                    pm.frequency_hz = fr;
+                }
+            }
+            if k == EffectKind::CasingModes {
+                // Start the mode at the PSD band the model misses most.
+                if let (Some(cm), Some(b)) = (t.effects.casing_modes.as_mut(), map.items.iter().find(|i| i.kind == "psd_band" && i.simulated < i.measured)) {
+                    if let Some(md) = cm.modes.first_mut() {
+                        md.frequency_hz = b.frequency_hz.clamp(300.0, 0.45 * t.fs_hz);
+                    }
+                }
+            }
+            if t.validate().is_err() {
+                return None;
+            }
+            let params = Param::of_effect(k);
+            let result = if params.is_empty() {
+                evaluate(&t, measured, opts).ok().map(|(c, _)| (t.clone(), objective(&c, &opts.weights), c.envelope_nrmse()))
+            } else {
+                fit(&t, measured, &params, 1, opts).ok().map(|(fm, f)| (fm, f.objective_after, f.envelope_nrmse_after))
+            };
+            let r = result.map(|(fm, j, env)| {
+                let parameter = Param::main_of_effect(k).and_then(|p| p.get(&fm).map(|v| (p, v)));
+                let extra: Vec<(Param, f64)> = params.iter().filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(&fm).map(|v| (*p, v))).collect();
+                let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
+                let (ev, _) = evidence(k, &map);
+                let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
+                let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
+                let summary = format!("{ev}; adding {}{pv} changes envelope NRMSE from {env0:.1} % to {env:.1} % (objective {j0:.1} → {j:.1})", k.name());
+                EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, reduction, evidence: ev, summary }
+            });
+            let d = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+            progress(d, total);
+            r
+        })
+        .collect();
+    let mut trials = trials;
+    trials.sort_by(|a, b| b.reduction.total_cmp(&a.reduction));
+    let best = trials.first().filter(|t| t.reduction >= opts.significance).map(|t| t.effect);
+    let verdict = match best {
+        Some(_) => format!("{}: {}", trials[0].effect.name(), trials[0].summary),
+        None => format!(
+            "nothing significant is missing (best trial: {} lowers the objective by {:.0} %, below the {:.0} % threshold)",
+            trials.first().map(|t| t.effect.name()).unwrap_or("none"),
+            trials.first().map(|t| t.reduction * 100.0).unwrap_or(0.0),
+            opts.significance * 100.0
+        ),
+    };
+    let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, trials, best, verdict }))
+}
+
+/// One round of the loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Round {
+    /// Round number (1-based).
+    pub round: usize,
+    /// Effects on at the start of the round.
+    pub effects_on: Vec<EffectKind>,
+    /// Metrics of the calibrated model: (domain, Pearson, NRMSE %).
+    pub domains: Vec<(String, f64, f64)>,
+    /// Envelope NRMSE after calibration, %.
+    pub envelope_nrmse: f64,
+    /// Objective after calibration.
+    pub objective: f64,
+    /// The verdict.
+    pub verdict: String,
+    /// The effect applied at the end of the round.
+    pub applied: Option<EffectKind>,
+}
+
+/// compare → diagnose → apply the best effect (with its fitted parameter) → repeat, for up to
+/// `rounds` rounds or until nothing significant is missing. Returns the final machine, the
+/// history, and the last diagnosis.
+pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
+    let reference = Reference::new(measured, &opts.compare)?;
+    let mut current = m.clone();
+    let mut history = Vec::new();
+    let mut last = None;
+    for r in 1..=rounds.max(1) {
+        let (cal, d) = diagnose_with(&current, &reference, opts, progress)?;
+        let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::INFINITY);
+        let mut next = cal.clone();
+        let applied = d.best;
+        if let Some(k) = applied {
+            next.effects.enable(k);
+            if let Some(t) = d.trials.iter().find(|t| t.effect == k) {
+                for (p, v) in t.parameter.iter().chain(t.extra_parameters.iter()) {
+                    p.set(&mut next, *v);
+                }
+            }
+            if k == EffectKind::PathModulation {
+                let (_, shaft) = machine_families(&next);
+                if let (Some(pm), Some(fr)) = (next.effects.path_modulation.as_mut(), shaft) {
+                    pm.frequency_hz = fr;
+                }
+            }
+        }
+        history.push(Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, verdict: d.verdict.clone(), applied });
+        current = next;
+        let stop = applied.is_none();
+        last = Some(d);
+        if stop {
+            break;
+        }
+    }
+    let last = last.ok_or(LoopError::Cancelled)?;
+    Ok((current, history, last))
+}
+
+/// The comparison of the calibrated machine (for reports).
+pub fn final_comparison(m: &Machine, measured: &Signal, opts: &LoopOptions) -> Result<Comparison, LoopError> {
+    Ok(evaluate(m, &Reference::new(measured, &opts.compare)?, opts)?.0)
+}
