@@ -103,6 +103,26 @@ enum Command {
         #[arg(long)]
         save_machine: Option<PathBuf>,
     },
+    /// Hidden-effect evaluation: for each effect, simulate a "measurement" with it hidden
+    /// (random parameters, perturbed baseline, SNR 0–20 dB), diagnose the model without it, and
+    /// print the confusion table (Markdown). Controls hide nothing.
+    Confusion {
+        /// Base machine preset (all effects it has on stay on in model and measurement).
+        #[arg(long, default_value = "mfs_inner")]
+        preset: String,
+        /// Effects to hide (default: every applicable effect the preset lacks).
+        #[arg(long = "effect")]
+        effects: Vec<String>,
+        /// Control cases with nothing hidden.
+        #[arg(long, default_value_t = 2)]
+        controls: usize,
+        /// Measured duration, s.
+        #[arg(long, default_value_t = 2.0)]
+        duration_s: f64,
+        /// Write all case results as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Simulate a machine (TOML, or a bundled preset) and write the sensor signal (.wav or .csv).
     Simulate {
         /// Machine description (TOML); or use --preset.
@@ -166,6 +186,7 @@ fn run(cli: Cli) -> Result<()> {
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, json.as_deref()),
         Some(Command::Diagnose { measured, machine, preset, channel, band_hz, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Confusion { preset, effects, controls, duration_s, json }) => confusion_cmd(&preset, &effects, controls, duration_s, json.as_deref()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => {
             eprintln!("twinscope: nothing to do. Try `twinscope --batch sample_data/demo_envelope.toml` or `twinscope --help`.");
@@ -425,6 +446,46 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     }
     if !quiet {
         eprintln!("twinscope: diagnose took {:.1} s", started.elapsed().as_secs_f64());
+    }
+    Ok(())
+}
+
+fn confusion_cmd(preset: &str, effects: &[String], controls: usize, duration_s: f64, json: Option<&Path>) -> Result<()> {
+    use twinscope::compare::{hidden, LoopOptions};
+    use twinscope::model::{self, EffectKind, Effects};
+    let base = model::preset(preset)?;
+    let kinds: Vec<EffectKind> = if effects.is_empty() {
+        EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, &base)).collect()
+    } else {
+        effects.iter().map(|n| EffectKind::parse(n).with_context(|| format!("unknown effect `{n}`"))).collect::<Result<_>>()?
+    };
+    let opts = LoopOptions::default();
+    let mut cases: Vec<Option<EffectKind>> = kinds.iter().map(|k| Some(*k)).collect();
+    cases.extend(std::iter::repeat_n(None, controls));
+    let mut results = Vec::new();
+    println!("| hidden | true parameter | SNR dB | ranked first | rank of hidden | envelope NRMSE before → after (%) | s |");
+    println!("|---|---|---:|---|---:|---|---:|");
+    for (i, h) in cases.iter().enumerate() {
+        let r = hidden::run_case(&base, *h, 100 + i as u64, duration_s, &opts)?;
+        let tp = r.true_parameter.map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).unwrap_or_else(|| "-".into());
+        println!(
+            "| {} | {} | {:.1} | {} | {} | {:.1} → {:.1} | {:.0} |",
+            h.map(|k| k.name()).unwrap_or("(control)"),
+            tp,
+            r.snr_db,
+            r.chosen.map(|k| k.name()).unwrap_or("nothing significant"),
+            r.rank_of_hidden.map(|x| x.to_string()).unwrap_or_else(|| "-".into()),
+            r.envelope_nrmse_before,
+            r.envelope_nrmse_after,
+            r.seconds
+        );
+        results.push(r);
+    }
+    let hits = results.iter().filter(|r| r.hidden.is_some() && r.chosen == r.hidden).count();
+    let ok_controls = results.iter().filter(|r| r.hidden.is_none() && r.chosen.is_none()).count();
+    println!("\nhidden effect ranked first and chosen: {hits}/{}; controls answered nothing significant: {ok_controls}/{controls}", kinds.len());
+    if let Some(p) = json {
+        std::fs::write(p, serde_json::to_string_pretty(&results)?)?;
     }
     Ok(())
 }

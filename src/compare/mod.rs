@@ -4,6 +4,7 @@
 
 pub mod calibrate;
 pub mod diagnose;
+pub mod hidden;
 pub mod metrics;
 pub mod residual;
 
