@@ -90,6 +90,10 @@ enum Command {
         /// Demodulation band, Hz, e.g. `1800,3000`.
         #[arg(long, value_delimiter = ',')]
         band_hz: Option<Vec<f64>>,
+        /// Effects the starting model has on (default parameters; calibrated where they have a
+        /// calibration parameter, e.g. `noise`).
+        #[arg(long = "with", value_name = "EFFECT")]
+        with: Vec<String>,
         /// Rounds of diagnose → apply best → re-compare.
         #[arg(long, default_value_t = 1)]
         rounds: usize,
@@ -185,7 +189,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, controls, duration_s, json }) => confusion_cmd(&preset, &effects, controls, duration_s, json.as_deref()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => {
@@ -392,15 +396,19 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
 }
 
 #[allow(clippy::too_many_arguments)]
-fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, rounds: usize, fit_duration_s: f64, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
+fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], rounds: usize, fit_duration_s: f64, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare::{self, LoopOptions};
     use twinscope::model::{self, Machine};
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
-    let m = match (machine, preset) {
+    let mut m = match (machine, preset) {
         (Some(p), _) => Machine::from_toml(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?, &p.display().to_string())?,
         (None, Some(n)) => model::preset(&n)?,
         (None, None) => anyhow::bail!("give --machine FILE or --preset NAME"),
     };
+    for n in with {
+        m.effects.enable(twinscope::model::EffectKind::parse(n).with_context(|| format!("unknown effect `{n}`"))?);
+    }
+    m.validate()?;
     let mut opts = LoopOptions { fit_duration_s, ..Default::default() };
     anyhow::ensure!(fit_duration_s.is_finite() && fit_duration_s >= 0.2, "--fit-duration-s must be at least 0.2 s");
     if let Some(b) = band_hz {

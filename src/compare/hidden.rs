@@ -31,6 +31,8 @@ pub struct CaseResult {
     pub envelope_nrmse_after: f64,
     /// The verdict text.
     pub verdict: String,
+    /// Relative objective reduction of each trial, in ranking order.
+    pub reductions: Vec<f64>,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -131,6 +133,7 @@ pub fn run_case(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_
         envelope_nrmse_before: env_before,
         envelope_nrmse_after: env_after,
         verdict: d.verdict,
+        reductions: d.trials.iter().map(|t| t.reduction).collect(),
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

@@ -246,9 +246,20 @@ impl System {
 
     /// Checks that every DOF has stiffness to something (no free rigid-body motion).
     pub fn check_supported(&self, q: &[f64]) -> Result<(), ModelError> {
-        let k = self.tangent_stiffness(0.0, q, 1e-9);
-        for i in 0..self.n() {
-            let kii = k[(i, i)];
+        // Time-varying elements (a bearing's balls move with the cage) can leave a DOF without
+        // stiffness at one instant — a single loaded ball exactly under the shaft has no
+        // lateral stiffness — while it is held over a ball pass. A DOF is unsupported only if it
+        // has no stiffness at any of these instants (0 to 50 ms).
+        let n = self.n();
+        let mut kmax = vec![f64::NEG_INFINITY; n];
+        for step in 0..=10 {
+            let k = self.tangent_stiffness(0.005 * step as f64, q, 1e-9);
+            for (i, km) in kmax.iter_mut().enumerate() {
+                let kii = k[(i, i)];
+                *km = if kii.is_nan() { f64::NAN } else { km.max(kii) };
+            }
+        }
+        for (i, &kii) in kmax.iter().enumerate() {
             if kii.is_nan() || kii <= 0.0 {
                 return Err(ModelError::NoEquilibrium(format!(
                     "DOF `{}` has no stiffness: support it with a bearing or a `[[coupling]]` to ground",
