@@ -21,7 +21,7 @@ struct Cli {
     #[arg(long, value_name = "DIR", requires = "batch")]
     out: Option<PathBuf>,
     /// No progress output on stderr.
-    #[arg(long, short)]
+    #[arg(long, short, global = true)]
     quiet: bool,
     #[command(subcommand)]
     command: Option<Command>,
