@@ -37,13 +37,14 @@ pub fn simulate(machine: &Machine) -> Result<Signal, ModelError> {
 }
 
 /// The bundled machine presets (`assets/machines/*.toml`), compiled into the binary.
-pub const PRESETS: [(&str, &str); 7] = [
+pub const PRESETS: [(&str, &str); 8] = [
     ("cwru_6205_inner", include_str!("../../assets/machines/cwru_6205_inner.toml")),
     ("cwru_6205_outer", include_str!("../../assets/machines/cwru_6205_outer.toml")),
     ("cwru_6205_ball", include_str!("../../assets/machines/cwru_6205_ball.toml")),
     ("mfs_outer", include_str!("../../assets/machines/mfs_outer.toml")),
     ("mfs_inner", include_str!("../../assets/machines/mfs_inner.toml")),
     ("mfs_ball", include_str!("../../assets/machines/mfs_ball.toml")),
+    ("mfs_healthy", include_str!("../../assets/machines/mfs_healthy.toml")),
     ("unsw_extended_inner", include_str!("../../assets/machines/unsw_extended_inner.toml")),
 ];
 
