@@ -131,3 +131,30 @@ fn sample_jobs_run_and_write_csv_and_json() {
         }
     }
 }
+
+#[test]
+fn compare_refuses_signals_with_different_units() {
+    let d = tempfile::tempdir().unwrap();
+    // A CSV in volts against the CWRU record in g: refused, one line, no panic.
+    let csv = d.path().join("volts.csv");
+    let mut text = String::from("time_s,v\n");
+    for i in 0..12000 {
+        text.push_str(&format!("{},{}\n", i as f64 / 12000.0, (i as f64 * 0.1).sin()));
+    }
+    std::fs::write(&csv, text).unwrap();
+    let r = run(&["compare", cwru("105_de_inner_007_0hp_12k.mat").to_str().unwrap(), csv.to_str().unwrap()]);
+    assert_clean_failure(&r, &["units differ"]);
+}
+
+#[test]
+fn simulate_writes_a_signal_that_info_reads_back() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("sim.wav");
+    let r = run(&["simulate", "--preset", "cwru_6205_inner", "--duration-s", "0.5", "-o", out.to_str().unwrap(), "-q"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let r = run(&["info", out.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("12000") && r.stdout.contains("29.95"), "{}", r.stdout);
+    let r = run(&["simulate", "--preset", "no_such_rig", "-o", out.to_str().unwrap()]);
+    assert_clean_failure(&r, &["no_such_rig"]);
+}

@@ -8,7 +8,7 @@
 //! closed form as the mean PSD level difference in dB.
 
 use super::{apply_gain_db, CompareError, CompareOptions, Comparison, Reference};
-use crate::model::{self, EffectKind, FaultLocation, Machine, ModelError};
+use crate::model::{self, EffectKind, Machine, ModelError};
 use serde::{Deserialize, Serialize};
 
 /// A fittable model parameter.
@@ -440,7 +440,7 @@ pub fn fit(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, 
 /// severity, noise level (when the noise effect is on). The gain is always solved.
 pub fn calibration_parameters(m: &Machine) -> Vec<Param> {
     let mut v = vec![Param::ResonanceHz, Param::ResonanceDamping];
-    if m.bearings.iter().any(|b| b.fault.as_ref().is_some_and(|f| f.location != FaultLocation::Ball) || b.fault.is_some()) {
+    if m.bearings.iter().any(|b| b.fault.is_some()) {
         v.push(Param::FaultDepthM);
     }
     if m.effects.noise.is_some() {
