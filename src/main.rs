@@ -416,6 +416,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         opts.compare.envelope_band_hz = [b[0], b[1]];
     }
     let started = std::time::Instant::now();
+    if !quiet {
+        eprintln!("twinscope: calibrating the model ({}), then one trial per missing effect; about 30–60 s per round on 2 cores", compare::calibrate::calibration_parameters(&m).iter().map(|p| p.name()).collect::<Vec<_>>().join(", "));
+    }
     let show = !quiet && std::io::stderr().is_terminal();
     let progress = move |done: usize, total: usize| {
         if show {

@@ -189,8 +189,9 @@ impl Default for SpeedFluctuation {
     }
 }
 
-/// Accelerometer response: a mounted resonance and a low-pass roll-off (2nd order), applied to
-/// the output.
+/// Accelerometer response: a 2nd-order low-pass roll-off applied to the output; with
+/// `damping_ratio` below 1/√2 it shows a mounted-resonance peak near the bandwidth, at the
+/// default 0.707 (Butterworth) it has none.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SensorResponse {
