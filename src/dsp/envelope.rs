@@ -170,15 +170,7 @@ pub fn envelope_spectrum(x: &[f64], fs_hz: f64, params: &EnvelopeParams) -> Resu
         let mean = e.iter().sum::<f64>() / n as f64;
         e.iter_mut().for_each(|v| *v -= mean);
     }
-    let win = params.window.periodic(n);
-    let gain: f64 = win.iter().sum();
-    if gain <= 0.0 {
-        return Err(DspError::InvalidParameter {
-            name: "window",
-            value: format!("{:?}", params.window),
-            reason: format!("the window sums to {gain} at length {n}; use a longer record"),
-        });
-    }
+    let (win, gain) = params.window.periodic_with_gain(n)?;
     e.iter_mut().zip(&win).for_each(|(v, w)| *v *= w);
     let plan = fft::r2c(n);
     let mut spec = plan.make_output_vec();

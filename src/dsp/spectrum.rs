@@ -236,15 +236,7 @@ pub fn amplitude_spectrum(x: &[f64], fs_hz: f64, params: &SpectrumParams) -> Res
     check_finite(x)?;
     let n = x.len();
     let nfft = params.nfft.unwrap_or(n);
-    let win = params.window.periodic(n);
-    let gain: f64 = win.iter().sum();
-    if gain <= 0.0 {
-        return Err(DspError::InvalidParameter {
-            name: "window",
-            value: format!("{:?}", params.window),
-            reason: format!("the window sums to {gain} at length {n}; use a longer record or the boxcar window"),
-        });
-    }
+    let (win, gain) = params.window.periodic_with_gain(n)?;
     let plan = fft::r2c(nfft);
     let mut input = plan.make_input_vec();
     for ((b, &v), &w) in input.iter_mut().zip(x).zip(&win) {

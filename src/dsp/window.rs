@@ -29,6 +29,23 @@ impl Window {
         self.build(n, true)
     }
 
+    /// Periodic window of length `n` with its coherent gain `Σw`, the amplitude-spectrum
+    /// normaliser. A window that sums to zero (length 1 of a window that is zero at its ends)
+    /// is refused rather than dividing by zero.
+    pub fn periodic_with_gain(self, n: usize) -> Result<(Vec<f64>, f64), DspError> {
+        let win = self.periodic(n);
+        let gain: f64 = win.iter().sum();
+        if gain > 0.0 {
+            Ok((win, gain))
+        } else {
+            Err(DspError::InvalidParameter {
+                name: "window",
+                value: format!("{self:?}"),
+                reason: format!("the window sums to {gain} at length {n}; use a longer record or the boxcar window"),
+            })
+        }
+    }
+
     /// Symmetric window of length `n` (scipy `get_window(name, n, fftbins=False)`).
     pub fn symmetric(self, n: usize) -> Vec<f64> {
         self.build(n, false)
