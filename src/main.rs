@@ -442,9 +442,21 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     for (f, s) in last.residual_map.envelope_families.iter().take(6) {
         println!("  {f:<22} {s:6.1} %");
     }
-    println!("\nmissing-effect ranking (last round):");
+    println!("\nmissing-effect ranking (last round); floor {:.2} (the model against itself), seed scatter ±{:.2}:", last.floor_objective, last.objective_scatter);
+    let n_tied = last.trials.iter().filter(|t| t.tied_with_best).count();
     for (i, t) in last.trials.iter().enumerate() {
-        println!("{:>2}. {:<18} objective {:6.1} → {:6.1} ({:+5.0} %)  envelope NRMSE {:5.1} → {:5.1} %", i + 1, t.effect.name(), t.objective_before, t.objective_after, -t.reduction * 100.0, t.envelope_nrmse_before, t.envelope_nrmse_after);
+        println!(
+            "{:>2}. {:<18} objective {:6.1} → {:6.1} ({:+4.0} %, explains {:4.0} % above the floor){}  envelope NRMSE {:5.1} → {:5.1} %",
+            i + 1,
+            t.effect.name(),
+            t.objective_before,
+            t.objective_after,
+            -t.reduction * 100.0,
+            t.explained * 100.0,
+            if t.tied_with_best && n_tied > 1 { " tied" } else { "     " },
+            t.envelope_nrmse_before,
+            t.envelope_nrmse_after
+        );
     }
     println!("\nverdict: {}", last.verdict);
     if history.len() > 1 || rounds > 1 {

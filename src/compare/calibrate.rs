@@ -282,15 +282,19 @@ pub struct LoopOptions {
     pub sweeps: usize,
     /// Weight of each domain in the objective: envelope, PSD dB, SCF slices. Default 1, 0.5, 0.25.
     pub weights: [f64; 3],
-    /// Relative error reduction below which an effect is "not significant". Default 0.15.
+    /// Share of the error above the seed floor that the best effect must explain to be
+    /// significant (see [`super::diagnose::decide`]). Default 0.2.
     pub significance: f64,
+    /// How far above its seed floor the calibrated objective must be before any effect can be
+    /// missing: objective ≥ (1 + margin) × floor. Default 0.5.
+    pub floor_margin: f64,
     /// Effects the search may try; empty (the default): every applicable effect the model lacks.
     pub candidates: Vec<crate::model::EffectKind>,
 }
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.15, candidates: Vec::new() }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new() }
     }
 }
 

@@ -38,6 +38,13 @@ pub struct EffectTrial {
     pub explained: f64,
     /// Evidence from the residual map for this effect's signature.
     pub evidence: String,
+    /// Share (%) of the error its signature carries in the residual map.
+    #[serde(default)]
+    pub evidence_share: f64,
+    /// Within the seed scatter of the best trial's objective: the data cannot tell the two
+    /// apart, and the evidence decides between them.
+    #[serde(default)]
+    pub tied_with_best: bool,
     /// One sentence for the user.
     pub summary: String,
 }
@@ -59,6 +66,10 @@ pub struct Diagnosis {
     /// The floor's NRMSE (%) per domain: (domain, NRMSE).
     #[serde(default)]
     pub floor_domains: Vec<(String, f64)>,
+    /// Standard deviation of the calibrated objective when only the model's seed changes: the
+    /// noise on every trial's objective.
+    #[serde(default)]
+    pub objective_scatter: f64,
     /// Trials, best first.
     pub trials: Vec<EffectTrial>,
     /// The effect to add, if one is significant.
@@ -184,6 +195,76 @@ pub fn seed_floor(m: &Machine, like: &Signal, against: &Comparison, opts: &LoopO
     Ok((objective(&floor, &opts.weights), domains))
 }
 
+/// Seeds of the re-runs behind [`objective_scatter`].
+const SCATTER_SEEDS: [u64; 2] = [0x5CA7_0001, 0x5CA7_0002];
+
+/// The standard deviation of the objective of `m` against the measurement over the model's
+/// seed (its own and [`SCATTER_SEEDS`]): how much a trial's objective moves by chance alone.
+pub fn objective_scatter(m: &Machine, reference: &Reference, j_own_seed: f64, opts: &LoopOptions) -> Result<f64, LoopError> {
+    let js: Vec<Result<f64, LoopError>> = SCATTER_SEEDS
+        .par_iter()
+        .map(|&s| {
+            let mut t = m.clone();
+            t.seed = m.seed ^ s;
+            Ok(objective(&evaluate(&t, reference, opts)?.0, &opts.weights))
+        })
+        .collect();
+    let mut all = vec![j_own_seed];
+    for j in js {
+        all.push(j?);
+    }
+    let n = all.len() as f64;
+    let mean = all.iter().sum::<f64>() / n;
+    Ok((all.iter().map(|j| (j - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt())
+}
+
+/// The decision, from the trials' objectives and the noise around them:
+/// 1. rank by objective after the trial (best first);
+/// 2. trials within the seed scatter of the best (difference < 2√2 σ) are tied: the data
+///    cannot tell them apart, and the one whose signature carries most of the residual map's
+///    error is put first;
+/// 3. that effect is significant when (a) the calibrated model is clearly above its floor
+///    (objective ≥ (1 + `floor_margin`) × floor: there is error a missing effect could
+///    explain), (b) it explains at least `significance` of the error above the floor, and (c)
+///    its improvement exceeds 2√2 σ (it is not the luck of a seed).
+///
+/// Otherwise the answer is "nothing significant is missing", with the reason.
+pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> (Vec<EffectTrial>, Option<EffectKind>, String) {
+    trials.sort_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
+    let tie = 2.0 * std::f64::consts::SQRT_2 * scatter;
+    if let Some(j_best) = trials.first().map(|t| t.objective_after) {
+        for t in trials.iter_mut() {
+            t.tied_with_best = t.objective_after - j_best < tie;
+        }
+        let n_tied = trials.iter().filter(|t| t.tied_with_best).count();
+        // Among the tied, the strongest evidence first (stable: objective order otherwise).
+        trials[..n_tied].sort_by(|a, b| b.evidence_share.total_cmp(&a.evidence_share).then(a.objective_after.total_cmp(&b.objective_after)));
+    }
+    let Some(first) = trials.first() else {
+        return (trials, None, "nothing significant is missing (no effect of the catalogue applies to this machine)".into());
+    };
+    let improvement = j0 - first.objective_after;
+    let reason = if j0 < (1.0 + opts.floor_margin) * floor {
+        Some(format!("the calibrated model is within its own scatter: objective {j0:.2} against a floor of {floor:.2} (the model against realisations of itself)"))
+    } else if first.explained < opts.significance {
+        Some(format!("best trial: {} explains {:.0} % of the error above the floor, below the {:.0} % threshold", first.effect.name(), first.explained * 100.0, opts.significance * 100.0))
+    } else if improvement < tie {
+        Some(format!("best trial: {} improves the objective by {improvement:.2}, within the seed scatter (±{tie:.2})", first.effect.name()))
+    } else {
+        None
+    };
+    match reason {
+        None => {
+            let ties: Vec<&str> = trials[1..].iter().filter(|t| t.tied_with_best).map(|t| t.effect.name()).collect();
+            let tie_note = if ties.is_empty() { String::new() } else { format!(" [tied within the seed scatter with {}; chosen on the evidence]", ties.join(", ")) };
+            let v = format!("{}: {} — explains {:.0} % of the error above the floor{tie_note}", first.effect.name(), first.summary, first.explained * 100.0);
+            let k = first.effect;
+            (trials, Some(k), v)
+        }
+        Some(r) => (trials, None, format!("nothing significant is missing ({r})")),
+    }
+}
+
 /// Calibrates the model, then tries every applicable effect it lacks (in parallel), and ranks
 /// them. Returns the calibrated machine and the diagnosis. `progress(done, expected)` is
 /// called after every model evaluation (from worker threads); returning `false` cancels, and
@@ -202,6 +283,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         fit_evaluations(m, &cal_params, opts.sweeps, opts)
             + 1
             + FLOOR_SEEDS.len()
+            + SCATTER_SEEDS.len()
             + candidates
             .iter()
             .map(|k| {
@@ -220,6 +302,10 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     let env0 = c.envelope_nrmse();
     let (floor, floor_domains) = seed_floor(&cal_m, measured.measured(), &c, opts)?;
     for _ in FLOOR_SEEDS {
+        progress.tick();
+    }
+    let scatter = objective_scatter(&cal_m, measured, j0, opts)?;
+    for _ in SCATTER_SEEDS {
         progress.tick();
     }
     let excess = j0 - floor;
@@ -256,11 +342,11 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 let extra: Vec<(Param, f64)> = params.iter().chain(TRIAL_REFINE.iter()).filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(&fm).map(|v| (*p, v))).collect();
                 let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
                 let explained = if excess > 0.0 { (j0 - j) / excess } else { 0.0 };
-                let (ev, _) = evidence(k, &map);
+                let (ev, ev_share) = evidence(k, &map);
                 let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
                 let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
                 let summary = format!("{ev}; adding {}{pv} changes envelope NRMSE from {env0:.1} % to {env:.1} % (objective {j0:.1} → {j:.1})", k.name());
-                EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, summary }
+                EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, summary }
             });
             r
         })
@@ -268,20 +354,9 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
     }
-    let mut trials = trials;
-    trials.sort_by(|a, b| b.reduction.total_cmp(&a.reduction));
-    let best = trials.first().filter(|t| t.reduction >= opts.significance).map(|t| t.effect);
-    let verdict = match best {
-        Some(_) => format!("{}: {}", trials[0].effect.name(), trials[0].summary),
-        None => format!(
-            "nothing significant is missing (best trial: {} lowers the objective by {:.0} %, below the {:.0} % threshold)",
-            trials.first().map(|t| t.effect.name()).unwrap_or("none"),
-            trials.first().map(|t| t.reduction * 100.0).unwrap_or(0.0),
-            opts.significance * 100.0
-        ),
-    };
+    let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, trials, best, verdict }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict }))
 }
 
 /// One round of the loop.
@@ -346,4 +421,74 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
 /// The comparison of the calibrated machine (for reports).
 pub fn final_comparison(m: &Machine, measured: &Signal, opts: &LoopOptions) -> Result<Comparison, LoopError> {
     Ok(evaluate(m, &Reference::new(measured, &opts.compare)?, opts)?.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trial(k: EffectKind, j0: f64, floor: f64, j: f64, evidence_share: f64) -> EffectTrial {
+        EffectTrial {
+            effect: k,
+            parameter: None,
+            extra_parameters: vec![],
+            objective_before: j0,
+            objective_after: j,
+            envelope_nrmse_before: 0.0,
+            envelope_nrmse_after: 0.0,
+            domains: vec![],
+            reduction: (j0 - j) / j0,
+            explained: (j0 - j) / (j0 - floor),
+            evidence: String::new(),
+            evidence_share,
+            tied_with_best: false,
+            summary: String::new(),
+        }
+    }
+
+    #[test]
+    fn decide_ranks_by_objective_and_breaks_ties_on_the_evidence() {
+        let o = LoopOptions::default();
+        let (j0, floor) = (20.0, 5.0);
+        let ts = vec![trial(EffectKind::Misalignment, j0, floor, 12.0, 10.0), trial(EffectKind::LoadZone, j0, floor, 12.1, 70.0), trial(EffectKind::Slip, j0, floor, 19.0, 90.0)];
+        // Scatter 0.1: a 0.1 difference is within 2√2 σ = 0.28 — a tie, decided by the evidence.
+        let (r, best, v) = decide(ts.clone(), j0, floor, 0.1, &o);
+        assert_eq!(best, Some(EffectKind::LoadZone), "{v}");
+        assert_eq!(r.iter().map(|t| t.effect).collect::<Vec<_>>(), vec![EffectKind::LoadZone, EffectKind::Misalignment, EffectKind::Slip]);
+        assert!(r[0].tied_with_best && r[1].tied_with_best && !r[2].tied_with_best);
+        assert!(v.contains("tied") && v.contains("misalignment"), "{v}");
+        // Scatter 0.01: no tie, the lower objective wins.
+        let (_, best, _) = decide(ts.clone(), j0, floor, 0.01, &o);
+        assert_eq!(best, Some(EffectKind::Misalignment));
+        // Scatter 3: even the best improvement (8) is within 2√2 σ = 8.5 — nothing significant.
+        // (All three are tied then; slip, with the strongest evidence, would lead.)
+        let (r, best, v) = decide(ts.clone(), j0, floor, 3.0, &o);
+        assert_eq!(r[0].effect, EffectKind::Slip);
+        assert_eq!(best, None);
+        let mut ts3 = ts.clone();
+        ts3[2].evidence_share = 5.0;
+        let (_, best, v) = decide(ts3, j0, floor, 3.0, &o);
+        assert_eq!(best, None);
+        assert!(v.contains("seed scatter"), "{v}");
+    }
+
+    #[test]
+    fn decide_needs_error_above_the_floor_and_a_real_share_of_it() {
+        let o = LoopOptions::default();
+        // At the floor: nothing to explain, however large the relative reduction.
+        let (_, best, v) = decide(vec![trial(EffectKind::SensorResponse, 2.7, 2.4, 2.3, 50.0)], 2.7, 2.4, 0.01, &o);
+        assert_eq!(best, None);
+        assert!(v.contains("within its own scatter"), "{v}");
+        // Far above the floor, but the best trial explains only 15 % of it.
+        let (_, best, v) = decide(vec![trial(EffectKind::CasingModes, 24.0, 4.0, 21.0, 50.0)], 24.0, 4.0, 0.01, &o);
+        assert_eq!(best, None);
+        assert!(v.contains("explains 15 %"), "{v}");
+        // Explains 40 %: significant.
+        let (_, best, _) = decide(vec![trial(EffectKind::LoadZone, 24.0, 4.0, 16.0, 50.0)], 24.0, 4.0, 0.01, &o);
+        assert_eq!(best, Some(EffectKind::LoadZone));
+        // No candidate at all.
+        let (_, best, v) = decide(vec![], 24.0, 4.0, 0.01, &o);
+        assert_eq!(best, None);
+        assert!(v.starts_with("nothing significant"), "{v}");
+    }
 }

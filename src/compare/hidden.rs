@@ -36,6 +36,9 @@ pub struct CaseResult {
     /// The seed floor of the objective (see [`super::diagnose::seed_floor`]).
     #[serde(default)]
     pub floor_objective: f64,
+    /// The seed scatter of the objective (see [`super::diagnose::objective_scatter`]).
+    #[serde(default)]
+    pub objective_scatter: f64,
     /// The trials, best first (per-domain NRMSE before and after each).
     #[serde(default)]
     pub trials: Vec<super::diagnose::EffectTrial>,
@@ -141,6 +144,7 @@ pub fn run_case(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_
         verdict: d.verdict,
         reductions: d.trials.iter().map(|t| t.reduction).collect(),
         floor_objective: d.floor_objective,
+        objective_scatter: d.objective_scatter,
         trials: d.trials.clone(),
         seconds: t0.elapsed().as_secs_f64(),
     })
