@@ -507,12 +507,13 @@ fn confusion_cmd(preset: &str, effects: &[String], controls: usize, duration_s: 
             r.seconds
         );
         results.push(r);
+        if let Some(p) = json {
+            // Written after every case, so a long run can be read while it goes on.
+            std::fs::write(p, serde_json::to_string_pretty(&results)?)?;
+        }
     }
     let hits = results.iter().filter(|r| r.hidden.is_some() && r.chosen == r.hidden).count();
     let ok_controls = results.iter().filter(|r| r.hidden.is_none() && r.chosen.is_none()).count();
     println!("\nhidden effect ranked first and chosen: {hits}/{}; controls answered nothing significant: {ok_controls}/{controls}", kinds.len());
-    if let Some(p) = json {
-        std::fs::write(p, serde_json::to_string_pretty(&results)?)?;
-    }
     Ok(())
 }

@@ -87,8 +87,9 @@ fn progress_counts_every_evaluation_and_cancel_stops_the_search() {
     assert!(d.is_ok(), "{:?}", d.err());
     // Every model evaluation is reported, and the expected total is exact when no trial is
     // skipped: calibration 1 + 4 parameters × 4, the calibrated model 1, the floor 2, the seed
-    // scatter 2, slip 1 + 4 + noise refit 3, casing_modes 1 + 3 × 4 (grid, then line search) + 3.
-    let expected = (1 + 4 * 4) + 1 + 2 + 2 + (1 + 4 + 3) + (1 + 12 + 3);
+    // scatter 2, slip 1 + 4 + noise refit 3, casing_modes 1 + 3 × 4 (grid, then line search) + 3,
+    // then both (the top 3) re-fit the 4 calibrated parameters locally: 2 × (1 + 4 × 3).
+    let expected = (1 + 4 * 4) + 1 + 2 + 2 + (1 + 4 + 3) + (1 + 12 + 3) + 2 * (1 + 4 * 3);
     assert_eq!(last_expected.load(Ordering::SeqCst), expected);
     assert_eq!(last_done.load(Ordering::SeqCst), expected);
     assert_eq!(calls.load(Ordering::SeqCst), expected);

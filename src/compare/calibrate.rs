@@ -290,11 +290,14 @@ pub struct LoopOptions {
     pub floor_margin: f64,
     /// Effects the search may try; empty (the default): every applicable effect the model lacks.
     pub candidates: Vec<crate::model::EffectKind>,
+    /// The best this many trials re-fit every calibrated parameter locally (stage 2 of the
+    /// search). Default 3.
+    pub recalibrate_top: usize,
 }
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new() }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3 }
     }
 }
 
@@ -454,7 +457,7 @@ fn refine_evaluations(opts: &LoopOptions) -> usize {
 }
 
 /// Fits an effect's `params` over their full range, then re-fits each of `refine` in a local
-/// bracket around its current value (± 16 % of its range): the calibrated parameters that had
+/// bracket around its current value (± 25 % of its search range): the calibrated parameters that had
 /// compensated for the missing effect (above all the noise level, which fills any energy the
 /// model lacks) are released when the effect is added, or the trial would judge the effect
 /// against a model tuned to do without it.
@@ -510,7 +513,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
             let (mut a, mut b) = (from(lo), from(hi));
             let (mut u0, mut j0) = (from(x0), best_j);
             if local {
-                let h = 0.16 * (b - a);
+                let h = 0.25 * (b - a);
                 (a, b) = ((u0 - h).max(a), (u0 + h).min(b));
                 n = refine_evaluations(opts);
             } else if p.multimodal() {

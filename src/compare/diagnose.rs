@@ -291,7 +291,8 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 t.effects.enable(*k);
                 fit_trial_evaluations(&t, &Param::of_effect(*k), &TRIAL_REFINE, opts)
             })
-            .sum::<usize>(),
+            .sum::<usize>()
+            + opts.recalibrate_top.min(candidates.len()) * fit_trial_evaluations(m, &[], &calibration_parameters(m), opts),
     );
     let (cal_m, cal) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
     let (c, _) = evaluate(&cal_m, measured, opts)?;
@@ -309,7 +310,24 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         progress.tick();
     }
     let excess = j0 - floor;
-    let trials: Vec<EffectTrial> = candidates
+    // Builds the reported trial from a fitted machine and its comparison numbers.
+    let make_trial = |k: EffectKind, fm: &Machine, f: &Fit, released: &[Param]| {
+        let j = f.objective_after;
+        let env = f.envelope_nrmse_after;
+        let after = |d: &str| f.domains.iter().find(|x| x.0 == d).map(|x| x.2).unwrap_or(f64::NAN);
+        let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after(&d.domain))).collect();
+        let parameter = Param::main_of_effect(k).and_then(|p| p.get(fm).map(|v| (p, v)));
+        let extra: Vec<(Param, f64)> = Param::of_effect(k).iter().chain(released.iter()).filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(fm).map(|v| (*p, v))).collect();
+        let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
+        let explained = if excess > 0.0 { (j0 - j) / excess } else { 0.0 };
+        let (ev, ev_share) = evidence(k, &map);
+        let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
+        let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
+        let summary = format!("{ev}; adding {}{pv} changes envelope NRMSE from {env0:.1} % to {env:.1} % (objective {j0:.1} → {j:.1})", k.name());
+        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, summary }
+    };
+    // Stage 1: every candidate, its own parameters fitted and the noise level re-fitted.
+    let stage1: Vec<(EffectTrial, Machine)> = candidates
         .par_iter()
         .filter_map(|&k| {
             let mut t = cal_m.clone();
@@ -320,40 +338,39 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                     pm.frequency_hz = fr;
                 }
             }
-            if k == EffectKind::CasingModes {
-                // Start the mode at the PSD band the model misses most.
-                if let (Some(cm), Some(b)) = (t.effects.casing_modes.as_mut(), map.items.iter().find(|i| i.kind == "psd_band" && i.simulated < i.measured)) {
-                    if let Some(md) = cm.modes.first_mut() {
-                        md.frequency_hz = b.frequency_hz.clamp(300.0, 0.45 * t.fs_hz);
-                    }
-                }
-            }
             if t.validate().is_err() {
                 return None;
             }
-            let params = Param::of_effect(k);
-            let result = fit_trial(&t, measured, &params, &TRIAL_REFINE, opts, progress).ok().map(|(fm, f)| {
-                let after = |d: &str| f.domains.iter().find(|x| x.0 == d).map(|x| x.2).unwrap_or(f64::NAN);
-                let pairs = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after(&d.domain))).collect();
-                (fm, f.objective_after, f.envelope_nrmse_after, pairs)
-            });
-            let r = result.map(|(fm, j, env, domains)| {
-                let parameter = Param::main_of_effect(k).and_then(|p| p.get(&fm).map(|v| (p, v)));
-                let extra: Vec<(Param, f64)> = params.iter().chain(TRIAL_REFINE.iter()).filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(&fm).map(|v| (*p, v))).collect();
-                let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
-                let explained = if excess > 0.0 { (j0 - j) / excess } else { 0.0 };
-                let (ev, ev_share) = evidence(k, &map);
-                let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
-                let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
-                let summary = format!("{ev}; adding {}{pv} changes envelope NRMSE from {env0:.1} % to {env:.1} % (objective {j0:.1} → {j:.1})", k.name());
-                EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, summary }
-            });
-            r
+            let (fm, f) = fit_trial(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, opts, progress).ok()?;
+            Some((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
         })
         .collect();
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
     }
+    // Stage 2: the best `recalibrate_top` trials release every calibrated parameter (locally):
+    // calibration without the effect may have bent the resonance or the fault depth to
+    // imitate it, and the effect must be judged against a model free to un-bend them.
+    let mut stage1 = stage1;
+    stage1.sort_by(|a, b| a.0.objective_after.total_cmp(&b.0.objective_after));
+    let n2 = opts.recalibrate_top.min(stage1.len());
+    let rest = stage1.split_off(n2);
+    let released = calibration_parameters(&cal_m);
+    let stage2: Vec<EffectTrial> = stage1
+        .into_par_iter()
+        .map(|(t1, fm)| match fit_trial(&fm, measured, &[], &released, opts, progress) {
+            Ok((fm2, f2)) if f2.objective_after < t1.objective_after => {
+                let mut rel = TRIAL_REFINE.to_vec();
+                rel.extend(released.iter().copied().filter(|p| !TRIAL_REFINE.contains(p)));
+                make_trial(t1.effect, &fm2, &f2, &rel)
+            }
+            _ => t1,
+        })
+        .collect();
+    if progress.is_cancelled() {
+        return Err(LoopError::Cancelled);
+    }
+    let trials: Vec<EffectTrial> = stage2.into_iter().chain(rest.into_iter().map(|x| x.0)).collect();
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
     Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict }))
