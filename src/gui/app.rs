@@ -330,7 +330,7 @@ impl Workbench {
                     }
                 }
                 ui.separator();
-                egui::ComboBox::from_id_salt("machine").selected_text(&self.settings.machine_preset).show_ui(ui, |ui| {
+                egui::ComboBox::from_label("machine").selected_text(&self.settings.machine_preset).show_ui(ui, |ui| {
                     for (name, _) in crate::model::PRESETS {
                         ui.selectable_value(&mut self.settings.machine_preset, name.to_string(), name);
                     }
@@ -341,14 +341,14 @@ impl Workbench {
             });
         });
         egui::Panel::bottom("status").show(ui, |ui| self.status_ui(ui, &mut commands));
-        egui::Panel::left("signals").default_size(330.0).show(ui, |ui| {
+        egui::Panel::left("signals").default_size(270.0).size_range(200.0..=420.0).show(ui, |ui| {
             egui::ScrollArea::vertical().id_salt("signals-scroll").show(ui, |ui| {
                 if let Some(c) = self.signals.ui(ui, &self.session, &self.settings) {
                     commands.push(c);
                 }
             });
         });
-        egui::Panel::right("chain").default_size(360.0).show(ui, |ui| {
+        egui::Panel::right("chain").default_size(300.0).size_range(220.0..=480.0).show(ui, |ui| {
             if let Some(c) = self.chain.ui(ui, &self.session, &self.settings) {
                 commands.push(c);
             }
@@ -391,18 +391,19 @@ impl Workbench {
         }
         let shown: Vec<_> = self.session.messages.iter().rev().take(3).cloned().collect();
         if !shown.is_empty() {
-            ui.horizontal(|ui| {
-                ui.vertical(|ui| {
-                    for m in shown.iter().rev() {
-                        match m.level {
-                            Level::Error => ui.colored_label(ui.visuals().error_fg_color, format!("Error: {}", m.text)),
-                            Level::Info => ui.label(&m.text),
-                        };
-                    }
-                });
+            ui.horizontal_top(|ui| {
                 if ui.small_button("Clear").clicked() {
                     commands.push(Command::ClearMessages);
                 }
+                ui.vertical(|ui| {
+                    for m in shown.iter().rev() {
+                        let text = match m.level {
+                            Level::Error => egui::RichText::new(format!("Error: {}", m.text)).color(ui.visuals().error_fg_color),
+                            Level::Info => egui::RichText::new(&m.text),
+                        };
+                        ui.add(egui::Label::new(text).wrap());
+                    }
+                });
             });
         } else if self.worker.jobs().is_empty() {
             ui.weak("ready");

@@ -80,17 +80,17 @@ fn optional_keys(kind: &str) -> Vec<(&'static str, toml::Value)> {
 }
 
 /// A number editor with the parameter's range and unit.
-fn number(ui: &mut egui::Ui, v: &mut toml::Value, key: &str, fs: f64) -> bool {
+fn number(ui: &mut egui::Ui, v: &mut toml::Value, key: &str, fs: f64, label: egui::Id) -> bool {
     match v {
         toml::Value::Float(f) => {
             let (lo, hi, suffix) = range_of(key, fs, false);
             let speed = ((hi - lo).abs() / 1000.0).clamp(1e-3, 10.0);
-            ui.add(egui::DragValue::new(f).range(lo..=hi).speed(speed).suffix(suffix)).changed()
+            ui.add(egui::DragValue::new(f).range(lo..=hi).speed(speed).suffix(suffix)).labelled_by(label).changed()
         }
         toml::Value::Integer(n) => {
             let (lo, hi, suffix) = range_of(key, fs, true);
             let mut x = *n as f64;
-            let ch = ui.add(egui::DragValue::new(&mut x).range(lo..=hi).speed(1.0).fixed_decimals(0).suffix(suffix)).changed();
+            let ch = ui.add(egui::DragValue::new(&mut x).range(lo..=hi).speed(1.0).fixed_decimals(0).suffix(suffix)).labelled_by(label).changed();
             if ch {
                 *n = x.round() as i64;
             }
@@ -101,32 +101,36 @@ fn number(ui: &mut egui::Ui, v: &mut toml::Value, key: &str, fs: f64) -> bool {
 }
 
 /// Edits one parameter value; returns whether it changed.
-fn value_ui(ui: &mut egui::Ui, kind: &str, key: &str, v: &mut toml::Value, fs: f64) -> bool {
+fn value_ui(ui: &mut egui::Ui, kind: &str, key: &str, v: &mut toml::Value, fs: f64, label: egui::Id) -> bool {
     if let (Some(opts), toml::Value::String(s)) = (choices(kind, key), &mut *v) {
         let mut changed = false;
-        egui::ComboBox::from_id_salt(("choice", kind, key, ui.next_auto_id())).selected_text(s.as_str()).show_ui(ui, |ui| {
-            for o in opts {
-                if ui.selectable_label(s == o, *o).clicked() && s != o {
-                    *s = o.to_string();
-                    changed = true;
+        egui::ComboBox::from_id_salt(("choice", kind, key, ui.next_auto_id()))
+            .selected_text(s.as_str())
+            .show_ui(ui, |ui| {
+                for o in opts {
+                    if ui.selectable_label(s == o, *o).clicked() && s != o {
+                        *s = o.to_string();
+                        changed = true;
+                    }
                 }
-            }
-        });
+            })
+            .response
+            .labelled_by(label);
         return changed;
     }
     match v {
-        toml::Value::Boolean(b) => ui.checkbox(b, "").changed(),
-        toml::Value::String(s) => ui.add(egui::TextEdit::singleline(s).desired_width(120.0)).changed(),
+        toml::Value::Boolean(b) => ui.checkbox(b, "").labelled_by(label).changed(),
+        toml::Value::String(s) => ui.add(egui::TextEdit::singleline(s).desired_width(120.0)).labelled_by(label).changed(),
         toml::Value::Array(a) => {
             let mut ch = false;
             ui.horizontal(|ui| {
                 for x in a.iter_mut() {
-                    ch |= number(ui, x, key, fs);
+                    ch |= number(ui, x, key, fs, label);
                 }
             });
             ch
         }
-        other => number(ui, other, key, fs),
+        other => number(ui, other, key, fs, label),
     }
 }
 
@@ -144,18 +148,19 @@ fn op_ui(ui: &mut egui::Ui, op: &Op, fs: f64) -> Option<Result<Op, String>> {
     egui::Grid::new(ui.next_auto_id()).num_columns(2).show(ui, |ui| {
         for key in keys {
             let optional = optional_keys(kind).iter().any(|(k, _)| *k == key);
-            ui.horizontal(|ui| {
-                if optional {
-                    let mut on = true;
-                    if ui.checkbox(&mut on, "").on_hover_text("unset: use the default").changed() && !on {
-                        t.remove(&key);
-                        changed = true;
-                    }
+            let label = if optional {
+                let mut on = true;
+                let r = ui.checkbox(&mut on, key.as_str()).on_hover_text("untick: use the default");
+                if r.changed() && !on {
+                    t.remove(&key);
+                    changed = true;
                 }
-                ui.label(&key);
-            });
+                r.id
+            } else {
+                ui.label(&key).id
+            };
             if let Some(v) = t.get_mut(&key) {
-                changed |= value_ui(ui, kind, &key, v, fs);
+                changed |= value_ui(ui, kind, &key, v, fs, label);
             } else {
                 ui.label("");
             }
@@ -165,14 +170,11 @@ fn op_ui(ui: &mut egui::Ui, op: &Op, fs: f64) -> Option<Result<Op, String>> {
             if t.contains_key(key) {
                 continue;
             }
-            ui.horizontal(|ui| {
-                let mut on = false;
-                if ui.checkbox(&mut on, "").on_hover_text("set this parameter").changed() && on {
-                    t.insert(key.to_string(), default.clone());
-                    changed = true;
-                }
-                ui.weak(key);
-            });
+            let mut on = false;
+            if ui.checkbox(&mut on, key).on_hover_text("tick to set this parameter").changed() && on {
+                t.insert(key.to_string(), default.clone());
+                changed = true;
+            }
             ui.weak("default");
             ui.end_row();
         }
@@ -216,7 +218,7 @@ impl View for ChainPanel {
         let mut edited = false;
         ui.heading("Chain");
         ui.horizontal(|ui| {
-            egui::ComboBox::from_id_salt("preset").selected_text(PRESETS.get(self.preset).map(|p| p.0).unwrap_or("?")).show_ui(ui, |ui| {
+            egui::ComboBox::from_label("preset").selected_text(PRESETS.get(self.preset).map(|p| p.0).unwrap_or("?")).show_ui(ui, |ui| {
                 for (i, (name, _)) in PRESETS.iter().enumerate() {
                     ui.selectable_value(&mut self.preset, i, *name);
                 }
@@ -236,7 +238,8 @@ impl View for ChainPanel {
             }
         });
         ui.horizontal(|ui| {
-            ui.add(egui::TextEdit::singleline(&mut self.path_text).desired_width(150.0).hint_text("path.toml"));
+            let l = ui.label("file");
+            ui.add(egui::TextEdit::singleline(&mut self.path_text).desired_width(130.0).hint_text("path.toml")).labelled_by(l.id);
             if ui.button("Read").on_hover_text("read a chain TOML from this path").clicked() {
                 cmd = Some(Command::OpenChain(self.path_text.trim().into()));
             }
@@ -245,11 +248,11 @@ impl View for ChainPanel {
             }
         });
         ui.horizontal(|ui| {
-            ui.label("name");
-            edited |= ui.add(egui::TextEdit::singleline(&mut self.draft.name).desired_width(180.0)).changed();
+            let l = ui.label("name");
+            edited |= ui.add(egui::TextEdit::singleline(&mut self.draft.name).desired_width(180.0)).labelled_by(l.id).changed();
         });
         if !self.draft.description.is_empty() {
-            ui.add(egui::Label::new(egui::RichText::new(&self.draft.description).small().weak()).wrap());
+            ui.add(egui::Label::new(egui::RichText::new(self.draft.description.replace('→', "->")).small().weak()).wrap());
         }
         ui.separator();
         let n = self.draft.stages.len();
@@ -263,10 +266,10 @@ impl View for ChainPanel {
                 let header = egui::CollapsingHeader::new(egui::RichText::new(head).color(if problem.is_some() { ui.visuals().error_fg_color } else { ui.visuals().text_color() })).id_salt(("stage", i)).default_open(false);
                 let resp = header.show(ui, |ui| {
                     ui.horizontal(|ui| {
-                        if ui.add_enabled(i > 0, egui::Button::new("⏶")).on_hover_text("move up").clicked() {
+                        if ui.add_enabled(i > 0, egui::Button::new("Up")).on_hover_text("move up").clicked() {
                             action = Some((i, -1));
                         }
-                        if ui.add_enabled(i + 1 < n, egui::Button::new("⏷")).on_hover_text("move down").clicked() {
+                        if ui.add_enabled(i + 1 < n, egui::Button::new("Down")).on_hover_text("move down").clicked() {
                             action = Some((i, 1));
                         }
                         if ui.button("Remove").clicked() {
@@ -274,10 +277,10 @@ impl View for ChainPanel {
                         }
                     });
                     egui::Grid::new(("stage-head", i)).num_columns(2).show(ui, |ui| {
-                        ui.label("name");
-                        edited |= ui.add(egui::TextEdit::singleline(&mut stage.name).desired_width(140.0)).changed();
+                        let l = ui.label("name");
+                        edited |= ui.add(egui::TextEdit::singleline(&mut stage.name).desired_width(140.0)).labelled_by(l.id).changed();
                         ui.end_row();
-                        ui.label("input");
+                        let l = ui.label("input");
                         let current = stage.input.clone().unwrap_or_else(|| "previous stage".into());
                         egui::ComboBox::from_id_salt(("input", i)).selected_text(current).show_ui(ui, |ui| {
                             edited |= ui.selectable_value(&mut stage.input, None, "previous stage").changed();
@@ -285,10 +288,12 @@ impl View for ChainPanel {
                             for e in earlier_names.iter().take(i) {
                                 edited |= ui.selectable_value(&mut stage.input, Some(e.clone()), e).changed();
                             }
-                        });
+                        })
+                        .response
+                        .labelled_by(l.id);
                         ui.end_row();
                         if stage.op.kind() == "stsa" {
-                            ui.label("fault");
+                            let l = ui.label("fault");
                             let current = match &stage.fault {
                                 Some(FaultRef::Named(n)) => n.clone(),
                                 Some(FaultRef::Hz(h)) => format!("{h} Hz"),
@@ -299,7 +304,9 @@ impl View for ChainPanel {
                                 for f in ["bpfo", "bpfi", "bsf", "2xbsf", "ftf", "shaft"] {
                                     edited |= ui.selectable_value(&mut stage.fault, Some(FaultRef::Named(f.into())), f).changed();
                                 }
-                            });
+                            })
+                            .response
+                            .labelled_by(l.id);
                             ui.end_row();
                         }
                         if matches!(stage.op.kind(), "spectrum" | "welch") {
@@ -349,7 +356,7 @@ impl View for ChainPanel {
             edited = true;
         }
         ui.horizontal(|ui| {
-            egui::ComboBox::from_id_salt("add-kind").selected_text(STAGE_KINDS[self.add_kind]).show_ui(ui, |ui| {
+            egui::ComboBox::from_label("kind").selected_text(STAGE_KINDS[self.add_kind]).show_ui(ui, |ui| {
                 for (i, k) in STAGE_KINDS.iter().enumerate() {
                     ui.selectable_value(&mut self.add_kind, i, *k);
                 }
@@ -382,7 +389,7 @@ impl View for ChainPanel {
         ui.separator();
         ui.horizontal(|ui| {
             let can_run = session.selected.is_some() && self.error.is_none();
-            if ui.add_enabled(can_run, egui::Button::new("▶ Run chain")).clicked() {
+            if ui.add_enabled(can_run, egui::Button::new("Run chain")).clicked() {
                 cmd = Some(Command::RunChain);
             }
         });

@@ -57,7 +57,7 @@ impl View for CompareView {
             return cmd;
         };
         let cmp = &c.comparison;
-        ui.label(format!(
+        ui.add(egui::Label::new(format!(
             "{} vs {} · demodulation band {:.0}–{:.0} Hz · {:.2} s compared at {:.0} Hz · simulated/measured RMS {:+.1} dB · speed ratio {:.4} · NRMSE normaliser {}",
             c.measured,
             c.simulated,
@@ -68,7 +68,7 @@ impl View for CompareView {
             cmp.alignment.rms_ratio_db,
             cmp.alignment.speed_ratio,
             c.options.normaliser.name()
-        ));
+        )).wrap());
         if self.domain.is_empty() || cmp.domain(&self.domain).is_none() {
             self.domain = cmp.domains.first().map(|d| d.domain.clone()).unwrap_or_default();
         }
@@ -80,9 +80,9 @@ impl View for CompareView {
         });
         let Some(d) = cmp.domain(&self.domain) else { return cmd };
         let h = ui.available_height();
-        ui.horizontal_top(|ui| {
-            let w = ui.available_width();
-            ui.allocate_ui(egui::vec2((w * 0.55).max(300.0), h), |ui| {
+        ui.columns(2, |cols| {
+            {
+                let ui = &mut cols[0];
                 let link = egui::Id::unique("compare-link");
                 let line = |v: &[f64]| -> PlotPoints { d.frequency_hz.iter().zip(v).map(|(&f, &y)| [f, y]).collect() };
                 ui.strong(format!("{} — measured and simulated", d.quantity));
@@ -95,8 +95,9 @@ impl View for CompareView {
                 Plot::new("compare-residual").height(h * 0.3).link_axis(link, [true, false]).x_axis_label("frequency (Hz)").show(ui, |pu| {
                     pu.line(Line::new("residual", res).color(Color32::from_rgb(200, 60, 60)));
                 });
-            });
-            ui.vertical(|ui| {
+            }
+            {
+                let ui = &mut cols[1];
                 ui.strong("Metrics");
                 egui::Grid::new("metrics").striped(true).num_columns(6).show(ui, |ui| {
                     for hdr in ["domain", "Pearson r", "xcorr", "lag", "RMSE", "NRMSE"] {
@@ -141,7 +142,7 @@ impl View for CompareView {
                         }
                     });
                 });
-            });
+            }
         });
         cmd
     }

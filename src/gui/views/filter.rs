@@ -75,7 +75,7 @@ impl View for FilterView {
         let s_lo = pl - spec.transition_low_hz;
         let s_hi = ph + spec.transition_high_hz;
         Plot::new("fir-plot").x_axis_label("frequency (Hz)").y_axis_label("magnitude (dB)").legend(Legend::default()).include_y(-(spec.stopband_high_db.max(spec.stopband_low_db) + 30.0)).include_y(5.0).show(ui, |pu| {
-            pu.line(Line::new(format!("response ({} taps)", d.numtaps), pts).width(1.2));
+            pu.line(Line::new(format!("response ({} taps)", d.numtaps), pts).color(Color32::from_rgb(70, 140, 230)).width(1.2));
             let seg = |name: &str, x0: f64, x1: f64, y: f64| Line::new(name.to_string(), vec![[x0, y], [x1, y]]).color(spec_colour).width(2.0);
             if s_lo > 0.0 {
                 pu.line(seg("spec", 0.0, s_lo, -spec.stopband_low_db));

@@ -36,7 +36,7 @@ impl View for SignalsPanel {
             }
         });
         if !settings.recent_files.is_empty() {
-            egui::ComboBox::from_id_salt("recent").selected_text("Recent files").width(200.0).show_ui(ui, |ui| {
+            egui::ComboBox::from_label("recent").selected_text("files").width(200.0).show_ui(ui, |ui| {
                 for p in &settings.recent_files {
                     if ui.selectable_label(false, p.display().to_string()).clicked() {
                         cmd = Some(Command::OpenSignal(p.clone()));
@@ -64,7 +64,9 @@ impl View for SignalsPanel {
                 for i in rows {
                     let e = &session.signals[i];
                     let s = &e.signal;
-                    if ui.selectable_label(session.selected == Some(i), e.title()).on_hover_text(s.meta.source.clone().unwrap_or_default()).clicked() {
+                    let full = e.title();
+                    let short = if full.chars().count() > 24 { format!("{}…", full.chars().take(23).collect::<String>()) } else { full.clone() };
+                    if ui.selectable_label(session.selected == Some(i), short).on_hover_text(format!("{full}\n{}", s.meta.source.clone().unwrap_or_default())).clicked() {
                         cmd = Some(Command::Select(i));
                     }
                     ui.label(format!("{:.0} Hz", s.fs_hz));
@@ -109,13 +111,15 @@ impl View for SignalsPanel {
             ui.label("");
             ui.weak(if d.shaft_known { format!("{:.1} rpm", d.shaft_speed_hz * 60.0) } else { "unknown".into() });
             ui.end_row();
-            ui.label("bearing");
+            let l = ui.label("bearing");
             egui::ComboBox::from_id_salt("bearing").selected_text(d.bearing.clone().unwrap_or_else(|| "none".into())).width(170.0).show_ui(ui, |ui| {
                 ui.selectable_value(&mut d.bearing, None, "none");
                 for b in catalogue() {
                     ui.selectable_value(&mut d.bearing, Some(b.name.clone()), &b.name).on_hover_text(&b.source);
                 }
-            });
+            })
+            .response
+            .labelled_by(l.id);
             ui.end_row();
         });
         let changed = *d != fresh;

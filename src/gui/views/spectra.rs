@@ -32,7 +32,7 @@ pub struct SpectraView {
 
 impl Default for SpectraView {
     fn default() -> Self {
-        Self { hidden_families: vec!["BSF".into()], link_id: egui::Id::unique("spectra-link") }
+        Self { hidden_families: vec!["BSF".into(), "FTF".into(), "shaft".into()], link_id: egui::Id::unique("spectra-link") }
     }
 }
 
@@ -41,11 +41,12 @@ fn is_power(s: &Spectrum) -> bool {
 }
 
 fn axis_label(s: &Spectrum, scale: AmplitudeScale) -> String {
-    let u = if s.unit.is_empty() { "unit".to_string() } else { s.unit.clone() };
+    let u = if s.unit.is_empty() { String::new() } else { format!(" ({})", s.unit) };
     match scale {
-        AmplitudeScale::Linear => format!("{} ({u})", s.quantity),
-        AmplitudeScale::Log10 => format!("log10 {} ({u})", s.quantity),
-        AmplitudeScale::Db => format!("{} (dB re 1 {u})", s.quantity),
+        AmplitudeScale::Linear => format!("{}{u}", s.quantity),
+        AmplitudeScale::Log10 => format!("log10 {}{u}", s.quantity),
+        AmplitudeScale::Db if s.unit.is_empty() => format!("{} (dB re 1)", s.quantity),
+        AmplitudeScale::Db => format!("{} (dB re 1 {})", s.quantity, s.unit),
     }
 }
 
@@ -63,20 +64,22 @@ fn spectrum_plot(ui: &mut egui::Ui, id: &str, s: &Spectrum, scale: AmplitudeScal
         let b = pu.plot_bounds();
         let (lo, hi) = (b.min()[0], b.max()[0]);
         let visible: Vec<&&MarkerLine> = markers.iter().filter(|m| m.frequency_hz >= lo && m.frequency_hz <= hi).collect();
-        // Too many lines in view hide the spectrum: draw markers only when they can be read.
-        if visible.len() <= 80 {
+        // Too many lines in view hide the spectrum: draw markers only when they can be read,
+        // and their labels only when they do not pile up. (Unnamed items stay out of the legend.)
+        let labelled = visible.iter().filter(|m| m.sideband == 0).count() <= 25;
+        if visible.len() <= 120 {
             for m in &visible {
                 let c = family_colour(&m.family);
                 let c = if m.sideband != 0 { c.gamma_multiply(0.45) } else { c };
-                pu.vline(VLine::new(m.label.clone(), m.frequency_hz).color(c).width(if m.sideband == 0 { 1.2 } else { 0.8 }).style(if m.sideband == 0 { egui_plot::LineStyle::Solid } else { egui_plot::LineStyle::dashed_dense() }));
-                if m.sideband == 0 && ymax.is_finite() {
-                    pu.text(Text::new(m.label.clone(), PlotPoint::new(m.frequency_hz, ymax), egui::RichText::new(&m.label).small().color(c)).anchor(egui::Align2::LEFT_TOP));
+                pu.vline(VLine::new("", m.frequency_hz).color(c).width(if m.sideband == 0 { 1.2 } else { 0.8 }).style(if m.sideband == 0 { egui_plot::LineStyle::Solid } else { egui_plot::LineStyle::dashed_dense() }));
+                if labelled && m.sideband == 0 && ymax.is_finite() {
+                    pu.text(Text::new("", PlotPoint::new(m.frequency_hz, ymax), egui::RichText::new(&m.label).small().color(c)).anchor(egui::Align2::LEFT_TOP));
                 }
             }
         }
         for (f, v, label) in peaks {
             let yv = scale_values(&[*v], scale, is_power(s))[0];
-            pu.text(Text::new("peak", PlotPoint::new(*f, yv), egui::RichText::new(format!("▼ {label}")).small()).anchor(egui::Align2::CENTER_BOTTOM));
+            pu.text(Text::new("", PlotPoint::new(*f, yv), egui::RichText::new(label.as_str()).small().strong()).anchor(egui::Align2::LEFT_BOTTOM));
         }
     });
 }
@@ -141,7 +144,7 @@ impl View for SpectraView {
             });
             ui.horizontal_top(|ui| {
                 let w = ui.available_width();
-                ui.allocate_ui(egui::vec2((w - 330.0).max(200.0), h * 0.5), |ui| {
+                ui.allocate_ui_with_layout(egui::vec2((w - 300.0).max(200.0), h * 0.5), egui::Layout::top_down(egui::Align::Min), |ui| {
                     let labelled: Vec<(f64, f64, String)> = a.peaks.iter().take(3).filter(|p| p.label() != "-").map(|p| (p.frequency_hz, p.value, p.label())).collect();
                     spectrum_plot(ui, "envelope-plot", env, scale, &markers, Some(egui::Id::unique("envelope-link")), h * 0.5 - 10.0, &labelled);
                 });

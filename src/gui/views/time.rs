@@ -57,8 +57,7 @@ impl View for TimeView {
             .map(|a| a.result.stages.iter().filter(|s| matches!(s.data, Data::Time(_))).map(|s| s.name.clone()).collect())
             .unwrap_or_default();
         ui.horizontal(|ui| {
-            ui.label("show");
-            egui::ComboBox::from_id_salt("time-source").selected_text(&self.source).show_ui(ui, |ui| {
+            egui::ComboBox::from_label("show").selected_text(&self.source).show_ui(ui, |ui| {
                 ui.selectable_value(&mut self.source, "raw".to_string(), "raw (the selected signal)");
                 for s in &stages {
                     ui.selectable_value(&mut self.source, s.clone(), format!("stage {s}"));
