@@ -32,7 +32,10 @@ impl View for CompareView {
         };
         keep(&mut self.measured, &measured, session.selected);
         keep(&mut self.simulated, &simulated, None);
-        let name = |i: Option<usize>| i.and_then(|i| session.signals.get(i)).map(|e| e.signal.name.clone()).unwrap_or_else(|| "none".into());
+        let name = |i: Option<usize>| {
+            let n = i.and_then(|i| session.signals.get(i)).map(|e| e.signal.name.clone()).unwrap_or_else(|| "none".into());
+            if n.chars().count() > 28 { format!("{}…", n.chars().take(27).collect::<String>()) } else { n }
+        };
         ui.horizontal(|ui| {
             egui::ComboBox::from_label("measured").selected_text(name(self.measured)).show_ui(ui, |ui| {
                 for &i in &measured {
@@ -79,42 +82,43 @@ impl View for CompareView {
             }
         });
         let Some(d) = cmp.domain(&self.domain) else { return cmd };
+        ui.strong("Metrics");
+        egui::Grid::new("metrics").striped(true).num_columns(6).show(ui, |ui| {
+            for hdr in ["domain", "Pearson r", "xcorr", "lag", "RMSE", "NRMSE"] {
+                ui.weak(hdr);
+            }
+            ui.end_row();
+            for dd in &cmp.domains {
+                let m = &dd.metrics;
+                ui.label(&dd.domain);
+                ui.label(format!("{:.3}", m.pearson));
+                ui.label(format!("{:.3}", m.xcorr_peak));
+                ui.label(format!("{}", m.xcorr_lag));
+                ui.label(fmt_num(m.rmse));
+                ui.label(format!("{:.1} %", m.nrmse_percent));
+                ui.end_row();
+            }
+        });
+        ui.separator();
         let h = ui.available_height();
         ui.columns(2, |cols| {
             {
                 let ui = &mut cols[0];
                 let link = egui::Id::unique("compare-link");
                 let line = |v: &[f64]| -> PlotPoints { d.frequency_hz.iter().zip(v).map(|(&f, &y)| [f, y]).collect() };
-                ui.strong(format!("{} — measured and simulated", d.quantity));
-                Plot::new("compare-overlay").height(h * 0.45).legend(Legend::default()).link_axis(link, [true, false]).x_axis_label("frequency (Hz)").show(ui, |pu| {
+                ui.add(egui::Label::new(egui::RichText::new(format!("{} — measured and simulated", d.quantity)).strong()).truncate());
+                Plot::new("compare-overlay").height(h * 0.5).legend(Legend::default()).link_axis(link, [true, false]).x_axis_label("frequency (Hz)").show(ui, |pu| {
                     pu.line(Line::new("measured", line(&d.measured)).color(Color32::from_rgb(60, 120, 220)).width(1.2));
                     pu.line(Line::new("simulated", line(&d.simulated)).color(Color32::from_rgb(230, 120, 40)).width(1.2));
                 });
                 ui.strong("residual (measured − simulated)");
                 let res: PlotPoints = d.frequency_hz.iter().zip(d.measured.iter().zip(&d.simulated)).map(|(&f, (&m, &s))| [f, m - s]).collect();
-                Plot::new("compare-residual").height(h * 0.3).link_axis(link, [true, false]).x_axis_label("frequency (Hz)").show(ui, |pu| {
+                Plot::new("compare-residual").height(h * 0.32).link_axis(link, [true, false]).x_axis_label("frequency (Hz)").show(ui, |pu| {
                     pu.line(Line::new("residual", res).color(Color32::from_rgb(200, 60, 60)));
                 });
             }
             {
                 let ui = &mut cols[1];
-                ui.strong("Metrics");
-                egui::Grid::new("metrics").striped(true).num_columns(6).show(ui, |ui| {
-                    for hdr in ["domain", "Pearson r", "xcorr", "lag", "RMSE", "NRMSE"] {
-                        ui.weak(hdr);
-                    }
-                    ui.end_row();
-                    for dd in &cmp.domains {
-                        let m = &dd.metrics;
-                        ui.label(&dd.domain);
-                        ui.label(format!("{:.3}", m.pearson));
-                        ui.label(format!("{:.3}", m.xcorr_peak));
-                        ui.label(format!("{}", m.xcorr_lag));
-                        ui.label(fmt_num(m.rmse));
-                        ui.label(format!("{:.1} %", m.nrmse_percent));
-                        ui.end_row();
-                    }
-                });
                 ui.add_space(6.0);
                 ui.strong("Where the envelope error lives");
                 egui::Grid::new("families").striped(true).num_columns(2).show(ui, |ui| {
@@ -126,17 +130,15 @@ impl View for CompareView {
                 });
                 ui.add_space(6.0);
                 ui.strong("Residual map");
-                egui::ScrollArea::vertical().id_salt("residual-map").show(ui, |ui| {
-                    egui::Grid::new("residual-items").striped(true).num_columns(5).show(ui, |ui| {
-                        for hdr in ["place", "Hz", "share", "measured / model", "note"] {
+                egui::ScrollArea::both().id_salt("residual-map").show(ui, |ui| {
+                    egui::Grid::new("residual-items").striped(true).num_columns(3).show(ui, |ui| {
+                        for hdr in ["place", "share", "note"] {
                             ui.weak(hdr);
                         }
                         ui.end_row();
                         for it in c.residual.items.iter().take(30) {
-                            ui.label(&it.label);
-                            ui.label(format!("{:.1}", it.frequency_hz));
+                            ui.label(&it.label).on_hover_text(format!("{} · {:.1} Hz · measured {} · model {}", it.kind, it.frequency_hz, fmt_num(it.measured), fmt_num(it.simulated)));
                             ui.label(format!("{:.1} %", it.share_percent));
-                            ui.label(format!("{} / {}", fmt_num(it.measured), fmt_num(it.simulated)));
                             ui.label(&it.note);
                             ui.end_row();
                         }

@@ -65,7 +65,7 @@ impl View for SignalsPanel {
                     let e = &session.signals[i];
                     let s = &e.signal;
                     let full = e.title();
-                    let short = if full.chars().count() > 24 { format!("{}…", full.chars().take(23).collect::<String>()) } else { full.clone() };
+                    let short = if full.chars().count() > 20 { format!("{}…", full.chars().take(19).collect::<String>()) } else { full.clone() };
                     if ui.selectable_label(session.selected == Some(i), short).on_hover_text(format!("{full}\n{}", s.meta.source.clone().unwrap_or_default())).clicked() {
                         cmd = Some(Command::Select(i));
                     }

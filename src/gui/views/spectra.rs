@@ -10,7 +10,7 @@ use crate::gui::settings::Settings;
 use crate::kinematics::MarkerLine;
 use crate::signal::display::{scale_values, AmplitudeScale};
 use egui::Color32;
-use egui_plot::{Legend, Line, Plot, PlotPoint, PlotPoints, Text, VLine};
+use egui_plot::{Line, Plot, PlotPoint, PlotPoints, Text, VLine};
 
 /// The marker colour of a family.
 pub fn family_colour(family: &str) -> Color32 {
@@ -55,7 +55,7 @@ fn spectrum_plot(ui: &mut egui::Ui, id: &str, s: &Spectrum, scale: AmplitudeScal
     let y = scale_values(&s.values, scale, is_power(s));
     let pts: PlotPoints = s.frequency_hz.iter().zip(&y).map(|(&f, &v)| [f, v]).collect();
     let ymax = y.iter().copied().filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
-    let mut plot = Plot::new(id).height(height).x_axis_label("frequency (Hz)").y_axis_label(axis_label(s, scale)).legend(Legend::default());
+    let mut plot = Plot::new(id).height(height).x_axis_label("frequency (Hz)").y_axis_label(axis_label(s, scale));
     if let Some(l) = link {
         plot = plot.link_axis(l, [true, false]).link_cursor(l, [true, false]);
     }
@@ -65,14 +65,17 @@ fn spectrum_plot(ui: &mut egui::Ui, id: &str, s: &Spectrum, scale: AmplitudeScal
         let (lo, hi) = (b.min()[0], b.max()[0]);
         let visible: Vec<&&MarkerLine> = markers.iter().filter(|m| m.frequency_hz >= lo && m.frequency_hz <= hi).collect();
         // Too many lines in view hide the spectrum: draw markers only when they can be read,
-        // and their labels only when they do not pile up. (Unnamed items stay out of the legend.)
-        let labelled = visible.iter().filter(|m| m.sideband == 0).count() <= 25;
+        // and a label only where it does not overlap the previous one.
+        let px_per_hz = pu.transform().frame().width() as f64 / (hi - lo).max(1e-9);
+        let mut last_label_px = f64::NEG_INFINITY;
         if visible.len() <= 120 {
             for m in &visible {
                 let c = family_colour(&m.family);
                 let c = if m.sideband != 0 { c.gamma_multiply(0.45) } else { c };
                 pu.vline(VLine::new("", m.frequency_hz).color(c).width(if m.sideband == 0 { 1.2 } else { 0.8 }).style(if m.sideband == 0 { egui_plot::LineStyle::Solid } else { egui_plot::LineStyle::dashed_dense() }));
-                if labelled && m.sideband == 0 && ymax.is_finite() {
+                let x_px = (m.frequency_hz - lo) * px_per_hz;
+                if m.sideband == 0 && ymax.is_finite() && x_px - last_label_px >= 60.0 {
+                    last_label_px = x_px;
                     pu.text(Text::new("", PlotPoint::new(m.frequency_hz, ymax), egui::RichText::new(&m.label).small().color(c)).anchor(egui::Align2::LEFT_TOP));
                 }
             }
@@ -136,16 +139,14 @@ impl View for SpectraView {
         let markers = self.markers(a, &s);
         let h = ui.available_height();
         if let Some((stage, env)) = &a.envelope {
-            ui.horizontal(|ui| {
-                ui.strong(format!("Envelope spectrum — stage `{stage}` of chain `{}` on {}", a.chain.name, a.signal_name));
-                if let Some(fr) = a.shaft_speed_hz {
-                    ui.label(format!("shaft {:.3} Hz ({:.0} rpm)", fr, fr * 60.0));
-                }
-            });
+            let w = ui.available_width();
+            let shaft = a.shaft_speed_hz.map(|fr| format!(" · shaft {:.3} Hz ({:.0} rpm)", fr, fr * 60.0)).unwrap_or_default();
+            ui.add(egui::Label::new(egui::RichText::new(format!("Envelope spectrum — stage `{stage}` of chain `{}` on {}{shaft}", a.chain.name, a.signal_name)).strong()).truncate());
             ui.horizontal_top(|ui| {
-                let w = ui.available_width();
-                ui.allocate_ui_with_layout(egui::vec2((w - 300.0).max(200.0), h * 0.5), egui::Layout::top_down(egui::Align::Min), |ui| {
-                    let labelled: Vec<(f64, f64, String)> = a.peaks.iter().take(3).filter(|p| p.label() != "-").map(|p| (p.frequency_hz, p.value, p.label())).collect();
+                ui.allocate_ui_with_layout(egui::vec2((w - 310.0).max(200.0), h * 0.5), egui::Layout::top_down(egui::Align::Min), |ui| {
+                    // Annotate the strong labelled peaks (at least a quarter of the largest).
+                    let top = a.peaks.first().map(|p| p.value).unwrap_or(0.0);
+                    let labelled: Vec<(f64, f64, String)> = a.peaks.iter().take(5).filter(|p| p.label() != "-" && p.value >= 0.25 * top).map(|p| (p.frequency_hz, p.value, p.label())).collect();
                     spectrum_plot(ui, "envelope-plot", env, scale, &markers, Some(egui::Id::unique("envelope-link")), h * 0.5 - 10.0, &labelled);
                 });
                 ui.vertical(|ui| {
@@ -154,7 +155,7 @@ impl View for SpectraView {
                         egui::Grid::new("peak-table").striped(true).num_columns(4).show(ui, |ui| {
                             ui.weak("#");
                             ui.weak("frequency");
-                            ui.weak(format!("value ({})", env.unit));
+                            ui.weak(if env.unit.is_empty() { "value".to_string() } else { format!("value ({})", env.unit) });
                             ui.weak("line");
                             ui.end_row();
                             for (i, p) in a.peaks.iter().enumerate() {
@@ -175,11 +176,11 @@ impl View for SpectraView {
         let rest = ui.available_height();
         let each = ((rest - 40.0) / 2.0).max(80.0);
         if let Some(sp) = &a.spectrum {
-            ui.strong(format!("Amplitude spectrum of {}", a.signal_name));
+            ui.add(egui::Label::new(egui::RichText::new(format!("Amplitude spectrum of {}", a.signal_name)).strong()).truncate());
             spectrum_plot(ui, "spectrum-plot", sp, scale, &markers, Some(self.link_id), each - 14.0, &[]);
         }
         if let Some(psd) = &a.psd {
-            ui.strong(format!("Welch PSD of {}", a.signal_name));
+            ui.add(egui::Label::new(egui::RichText::new(format!("Welch PSD of {}", a.signal_name)).strong()).truncate());
             spectrum_plot(ui, "psd-plot", psd, scale, &markers, Some(self.link_id), each - 14.0, &[]);
         }
         cmd
