@@ -41,12 +41,13 @@ fn is_power(s: &Spectrum) -> bool {
 }
 
 fn axis_label(s: &Spectrum, scale: AmplitudeScale) -> String {
+    let q = s.quantity.replace("power spectral density", "PSD");
     let u = if s.unit.is_empty() { String::new() } else { format!(" ({})", s.unit) };
     match scale {
-        AmplitudeScale::Linear => format!("{}{u}", s.quantity),
-        AmplitudeScale::Log10 => format!("log10 {}{u}", s.quantity),
-        AmplitudeScale::Db if s.unit.is_empty() => format!("{} (dB re 1)", s.quantity),
-        AmplitudeScale::Db => format!("{} (dB re 1 {})", s.quantity, s.unit),
+        AmplitudeScale::Linear => format!("{q}{u}"),
+        AmplitudeScale::Log10 => format!("log10 {q}{u}"),
+        AmplitudeScale::Db if s.unit.is_empty() => format!("{q} (dB re 1)"),
+        AmplitudeScale::Db => format!("{q} (dB re 1 {})", s.unit),
     }
 }
 
