@@ -15,7 +15,8 @@ pub struct BenchArgs {
     /// Repetitions per operation (the median is reported).
     #[arg(long, default_value_t = 5)]
     repeat: usize,
-    /// Skip the slow averaged cyclic periodogram (the SCF reference).
+    /// Skip the slow rows: the averaged cyclic periodogram (the SCF reference) and the
+    /// missing-effect search (about 2 min).
     #[arg(long)]
     skip_slow: bool,
     /// Do not run the scipy reference even if python3 has scipy.
@@ -27,7 +28,7 @@ pub struct BenchArgs {
 }
 
 struct Row {
-    name: &'static str,
+    name: String,
     ours_ms: f64,
     reference: &'static str,
     reference_key: Option<&'static str>,
@@ -74,8 +75,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     eprintln!("twinscope bench: 10 s at {fs} Hz ({} samples), median of {r} runs, {} threads", x.len(), rayon::current_num_threads());
 
     let welch = dsp::welch::WelchParams { nperseg: 4096, ..Default::default() };
-    rows.push(Row { name: "Welch PSD (nperseg 4096, hann, 50 %)", ours_ms: median_ms(r, || Ok(dsp::welch::welch_psd(&x, fs, &welch).map(|_| ())?))?, reference: "scipy.signal.welch", reference_key: Some("welch") });
-    rows.push(Row { name: "Hilbert envelope (abs of the analytic signal)", ours_ms: median_ms(r, || Ok(dsp::envelope::envelope(&x).map(|_| ())?))?, reference: "abs(scipy.signal.hilbert)", reference_key: Some("hilbert") });
+    rows.push(Row { name: "Welch PSD (nperseg 4096, hann, 50 %)".into(), ours_ms: median_ms(r, || Ok(dsp::welch::welch_psd(&x, fs, &welch).map(|_| ())?))?, reference: "scipy.signal.welch", reference_key: Some("welch") });
+    rows.push(Row { name: "Hilbert envelope (abs of the analytic signal)".into(), ours_ms: median_ms(r, || Ok(dsp::envelope::envelope(&x).map(|_| ())?))?, reference: "abs(scipy.signal.hilbert)", reference_key: Some("hilbert") });
 
     let spec = dsp::remez::BandpassSpec::default();
     let design = dsp::remez::design_bandpass(&spec, fs)?;
@@ -83,34 +84,34 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let weights = spec.weights();
     let numtaps = design.numtaps;
     rows.push(Row {
-        name: "remez, seed bandpass at its final order",
+        name: "remez, seed bandpass at its final order".into(),
         ours_ms: median_ms(r, || Ok(dsp::remez::remez(numtaps, &bands, &[0.0, 1.0, 0.0], &weights, fs).map(|_| ())?))?,
         reference: "scipy.signal.remez (maxiter=250)",
         reference_key: Some("remez"),
     });
     rows.push(Row {
-        name: "equiripple design loop (estimate → grow until spec met)",
+        name: "equiripple design loop (estimate → grow until spec met)".into(),
         ours_ms: median_ms(r, || Ok(dsp::remez::design_bandpass(&spec, fs).map(|_| ())?))?,
         reference: "-",
         reference_key: None,
     });
     rows.push(Row {
-        name: "zero-phase FIR filtering (filtfilt)",
+        name: "zero-phase FIR filtering (filtfilt)".into(),
         ours_ms: median_ms(r, || Ok(dsp::remez::filtfilt_fir(&design.taps, &x).map(|_| ())?))?,
         reference: "scipy.signal.filtfilt(b, 1)",
         reference_key: Some("filtfilt"),
     });
     let drs = dsp::drs::DrsParams::default();
-    rows.push(Row { name: "DRS (defaults)", ours_ms: median_ms(r, || Ok(dsp::drs::drs(&x, fs, &drs).map(|_| ())?))?, reference: "-", reference_key: None });
+    rows.push(Row { name: "DRS (defaults)".into(), ours_ms: median_ms(r, || Ok(dsp::drs::drs(&x, fs, &drs).map(|_| ())?))?, reference: "-", reference_key: None });
     let stsa = dsp::stsa::StsaParams { fault_frequency_hz: 107.0, ..Default::default() };
-    rows.push(Row { name: "STSA at 107 Hz", ours_ms: median_ms(r, || Ok(dsp::stsa::stsa(&x, fs, &stsa).map(|_| ())?))?, reference: "-", reference_key: None });
+    rows.push(Row { name: "STSA at 107 Hz".into(), ours_ms: median_ms(r, || Ok(dsp::stsa::stsa(&x, fs, &stsa).map(|_| ())?))?, reference: "-", reference_key: None });
 
     let chain = twinscope::chain::preset("envelope")?;
     let bearing = twinscope::kinematics::lookup_bearing("MB ER-12K")?;
     let ctx = twinscope::chain::ChainContext { bearing: Some(bearing), shaft_speed_hz: Some(15.0) };
     let sig = twinscope::signal::Signal::new(x.clone(), fs, "bench", "");
     rows.push(Row {
-        name: "seed envelope chain end to end (normalise → STSA → design + filtfilt → envelope spectrum)",
+        name: "seed envelope chain end to end (normalise → STSA → design + filtfilt → envelope spectrum)".into(),
         ours_ms: median_ms(r, || Ok(chain.run(&sig, &ctx, |_, _, _| {}).map(|_| ())?))?,
         reference: "-",
         reference_key: None,
@@ -119,7 +120,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if mat.exists() {
         let opts = twinscope::signal::io::LoadOptions::default();
         rows.push(Row {
-            name: "load a CWRU .mat (2.9 MB, DE channel)",
+            name: "load a CWRU .mat (2.9 MB, DE channel)".into(),
             ours_ms: median_ms(r, || Ok(twinscope::signal::io::load(&mat, &opts).map(|_| ())?))?,
             reference: "scipy.io.loadmat",
             reference_key: Some("loadmat"),
@@ -133,18 +134,37 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let built = twinscope::model::Model::build(&m)?;
             let ms = median_ms(r.min(3), || Ok(twinscope::model::run(&built, |_| true).map(|_| ())?))?;
             eprintln!("twinscope bench: {preset}: {} DOFs, {} substeps, step {:.3e} s", built.system.n(), m.substeps, 1.0 / (m.fs_hz * m.substeps as f64));
-            rows.push(Row { name: label, ours_ms: ms, reference: "-", reference_key: None });
+            rows.push(Row { name: label.into(), ours_ms: ms, reference: "-", reference_key: None });
         }
     }
 
     let scf_fast = ScfParams { alpha_min_hz: 0.0, alpha_max_hz: 500.0, ..Default::default() };
     let fast_ms = median_ms(r, || Ok(dsp::scf::fast_scf(&x, fs, &scf_fast).map(|_| ())?))?;
-    rows.push(Row { name: "fast SCF, α 0–500 Hz (defaults)", ours_ms: fast_ms, reference: "-", reference_key: None });
+    rows.push(Row { name: "fast SCF, α 0–500 Hz (defaults)".into(), ours_ms: fast_ms, reference: "-", reference_key: None });
     let mut slow_ms = None;
     if !args.skip_slow {
         let ms = median_ms(1, || Ok(dsp::scf::cyclic_periodogram(&x, fs, &scf_fast).map(|_| ())?))?;
         slow_ms = Some(ms);
-        rows.push(Row { name: "averaged cyclic periodogram (SCF reference), same grid", ours_ms: ms, reference: "-", reference_key: None });
+        rows.push(Row { name: "averaged cyclic periodogram (SCF reference), same grid".into(), ours_ms: ms, reference: "-", reference_key: None });
+    }
+
+    if !args.skip_slow && mat.exists() {
+        // The missing-effect search on a 10 s record (CWRU 105, the inner-race preset without
+        // load_zone): calibration, then one trial per candidate, in parallel. Timed for 3, 6 and
+        // all candidates to show how it scales with the size of the catalogue.
+        use twinscope::compare::{diagnose, LoopOptions};
+        use twinscope::model::{EffectKind, Effects};
+        let meas = twinscope::signal::io::load(&mat, &twinscope::signal::io::LoadOptions::default())?;
+        let mut m = twinscope::model::preset("cwru_6205_inner")?;
+        m.effects.enable(EffectKind::Noise);
+        let all: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, &m)).collect();
+        for n in [3, 6, all.len()] {
+            let mut opts = LoopOptions { candidates: all[..n.min(all.len())].to_vec(), ..Default::default() };
+            opts.compare.envelope_band_hz = [1800.0, 3000.0];
+            let ms = median_ms(1, || Ok(diagnose(&m, &meas, &opts, &|_, _| true).map(|_| ())?))?;
+            let name = format!("missing-effect search, {:.0}-s CWRU record, {n} candidate effects (calibrate + trials)", meas.duration_s());
+            rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
+        }
     }
 
     let scipy = if args.no_scipy { None } else { run_scipy(&args.python, &x, fs, &design.taps, &bands, &weights, r) };

@@ -132,6 +132,9 @@ enum Command {
         /// Measured duration, s.
         #[arg(long, default_value_t = 2.0)]
         duration_s: f64,
+        /// Seed of the first case (case i uses seed + i): a new seed draws new cases.
+        #[arg(long, default_value_t = 100)]
+        seed: u64,
         /// Write all case results as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -199,7 +202,7 @@ fn run(cli: Cli) -> Result<()> {
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, json.as_deref()),
         Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
-        Some(Command::Confusion { preset, effects, controls, duration_s, json }) => confusion_cmd(&preset, &effects, controls, duration_s, json.as_deref()),
+        Some(Command::Confusion { preset, effects, controls, duration_s, seed, json }) => confusion_cmd(&preset, &effects, controls, duration_s, seed, json.as_deref()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => open_workbench(cli.view, cli.open, !cli.no_demo),
     }
@@ -439,10 +442,11 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         eprintln!("twinscope: calibrating the model ({}), then one trial per missing effect; about 30–60 s per round on 2 cores", compare::calibrate::calibration_parameters(&m).iter().map(|p| p.name()).collect::<Vec<_>>().join(", "));
     }
     let show = !quiet && std::io::stderr().is_terminal();
-    let progress = move |done: usize, total: usize| {
+    let progress = move |done: usize, expected: usize| {
         if show {
-            eprint!("\rtwinscope: trials {done}/{total}   ");
+            eprint!("\rtwinscope: model evaluations {done}/{expected}   ");
         }
+        true
     };
     let (final_m, history, last) = compare::run_loop(&m, &meas, rounds, &opts, &progress)?;
     if show {
@@ -480,7 +484,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     Ok(())
 }
 
-fn confusion_cmd(preset: &str, effects: &[String], controls: usize, duration_s: f64, json: Option<&Path>) -> Result<()> {
+fn confusion_cmd(preset: &str, effects: &[String], controls: usize, duration_s: f64, seed: u64, json: Option<&Path>) -> Result<()> {
     use twinscope::compare::{hidden, LoopOptions};
     use twinscope::model::{self, EffectKind, Effects};
     let base = model::preset(preset)?;
@@ -496,7 +500,7 @@ fn confusion_cmd(preset: &str, effects: &[String], controls: usize, duration_s: 
     println!("| hidden | true parameter | SNR dB | ranked first | rank of hidden | envelope NRMSE before → after (%) | s |");
     println!("|---|---|---:|---|---:|---|---:|");
     for (i, h) in cases.iter().enumerate() {
-        let r = hidden::run_case(&base, *h, 100 + i as u64, duration_s, &opts)?;
+        let r = hidden::run_case(&base, *h, seed + i as u64, duration_s, &opts)?;
         let tp = r.true_parameter.map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).unwrap_or_else(|| "-".into());
         println!(
             "| {} | {} | {:.1} | {} | {} | {:.1} → {:.1} | {:.0} |",

@@ -17,7 +17,7 @@ fn run(file: &str, preset: &str) -> twinscope::compare::Diagnosis {
     m.effects.enable(EffectKind::Noise);
     let mut opts = LoopOptions::default();
     opts.compare.envelope_band_hz = [1800.0, 3000.0];
-    diagnose(&m, &measured, &opts, &|_, _| {}).unwrap().1
+    diagnose(&m, &measured, &opts, &|_, _| true).unwrap().1
 }
 
 #[test]

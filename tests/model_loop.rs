@@ -48,7 +48,7 @@ fn hidden_load_zone_is_found_and_the_error_falls() {
     assert!(!model_m.effects.is_on(EffectKind::LoadZone) && truth.effects.is_on(EffectKind::LoadZone));
     truth.duration_s = 2.0;
     let measured = model::simulate(&truth).unwrap();
-    let (_, history, _) = run_loop(&model_m, &measured, 2, &opts, &|_, _| {}).unwrap();
+    let (_, history, _) = run_loop(&model_m, &measured, 2, &opts, &|_, _| true).unwrap();
     eprintln!("true {true_param:?}, SNR {snr:.1} dB; history {:?}", history.iter().map(|r| (r.envelope_nrmse, r.applied)).collect::<Vec<_>>());
     // Round 1 ranks load_zone first and applies it ...
     assert_eq!(history[0].applied, Some(EffectKind::LoadZone), "round 1 verdict: {}", history[0].verdict);
@@ -57,4 +57,73 @@ fn hidden_load_zone_is_found_and_the_error_falls() {
     let r2 = history.get(1).expect("a second round");
     assert!(r2.effects_on.contains(&EffectKind::LoadZone));
     assert!(r2.envelope_nrmse <= 0.5 * history[0].envelope_nrmse, "round 1 {:.2} %, round 2 {:.2} %", history[0].envelope_nrmse, r2.envelope_nrmse);
+}
+
+/// The CWRU inner-race preset, 1 s of "measurement" from `seed`, and quick loop options that
+/// try only `candidates`.
+fn quick_case(seed: u64, candidates: Vec<EffectKind>) -> (model::Machine, twinscope::signal::Signal, LoopOptions) {
+    let mut m = model::preset("cwru_6205_inner").unwrap();
+    m.effects.enable(EffectKind::Noise);
+    let mut truth = m.clone();
+    truth.seed = seed;
+    truth.duration_s = 1.0;
+    let measured = model::simulate(&truth).unwrap();
+    let mut opts = LoopOptions { fit_duration_s: 0.8, evaluations_per_parameter: 4, sweeps: 1, candidates, ..Default::default() };
+    opts.compare.envelope_band_hz = [1800.0, 3000.0];
+    (m, measured, opts)
+}
+
+#[test]
+fn progress_counts_every_evaluation_and_cancel_stops_the_search() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let (m, measured, opts) = quick_case(11, vec![EffectKind::Slip, EffectKind::CasingModes]);
+    let (calls, last_done, last_expected) = (AtomicUsize::new(0), AtomicUsize::new(0), AtomicUsize::new(0));
+    let d = twinscope::compare::diagnose(&m, &measured, &opts, &|done, expected| {
+        calls.fetch_add(1, Ordering::SeqCst);
+        last_done.fetch_max(done, Ordering::SeqCst);
+        last_expected.store(expected, Ordering::SeqCst);
+        true
+    });
+    assert!(d.is_ok(), "{:?}", d.err());
+    // Every model evaluation is reported, and the expected total is exact when no trial is
+    // skipped: calibration 1 + 4 parameters × 4, the calibrated model 1, the floor 2, slip
+    // 1 + 4 + noise refit 3, casing_modes 1 + 3 × 4 (grid, then line search) + 3.
+    let expected = (1 + 4 * 4) + 1 + 2 + (1 + 4 + 3) + (1 + 12 + 3);
+    assert_eq!(last_expected.load(Ordering::SeqCst), expected);
+    assert_eq!(last_done.load(Ordering::SeqCst), expected);
+    assert_eq!(calls.load(Ordering::SeqCst), expected);
+
+    // Cancel after the fifth evaluation: the search stops with Cancelled, within a few calls.
+    let calls = AtomicUsize::new(0);
+    let r = twinscope::compare::diagnose(&m, &measured, &opts, &|done, _| {
+        calls.fetch_add(1, Ordering::SeqCst);
+        done < 5
+    });
+    assert!(matches!(r, Err(twinscope::compare::LoopError::Cancelled)), "{:?}", r.map(|x| x.1.verdict));
+    assert!(calls.load(Ordering::SeqCst) <= 6, "{} evaluations after cancelling", calls.load(Ordering::SeqCst));
+}
+
+#[test]
+fn the_seed_floor_is_what_the_model_scores_against_itself() {
+    // A "measurement" from the model itself (another seed): the calibrated objective is at the
+    // floor — there is nothing for a missing effect to explain.
+    let (m, measured, opts) = quick_case(12, vec![EffectKind::LoadZone]);
+    let (_, d) = twinscope::compare::diagnose(&m, &measured, &opts, &|_, _| true).unwrap();
+    let j0 = d.calibration.objective_after;
+    assert!(d.floor_objective > 0.0 && j0 < 1.5 * d.floor_objective, "objective {j0:.2}, floor {:.2}", d.floor_objective);
+    assert_eq!(d.best, None, "{}", d.verdict);
+
+    // The same model against a measurement with a strong load zone: far above its floor.
+    let mut truth = m.clone();
+    truth.seed = 12;
+    truth.duration_s = 1.0;
+    truth.effects.enable(EffectKind::LoadZone);
+    Param::RadialLoadN.set(&mut truth, 200.0);
+    let measured = model::simulate(&truth).unwrap();
+    let (_, d) = twinscope::compare::diagnose(&m, &measured, &opts, &|_, _| true).unwrap();
+    let j0 = d.calibration.objective_after;
+    assert!(j0 > 2.0 * d.floor_objective, "objective {j0:.2}, floor {:.2}", d.floor_objective);
+    let t = &d.trials[0];
+    assert_eq!(t.effect, EffectKind::LoadZone);
+    assert!(t.explained > 0.5, "load_zone explains {:.0} % of the error above the floor", t.explained * 100.0);
 }

@@ -227,6 +227,12 @@ impl Param {
         Self::main_of_effect(k).into_iter().collect()
     }
 
+    /// Whether the objective has several local minima along this parameter (a mode frequency
+    /// can lock onto any spectral feature): [`fit`] scans a grid before its line search.
+    pub fn multimodal(self) -> bool {
+        matches!(self, Param::CasingModeHz)
+    }
+
     /// The main parameter of an effect (reported with the trial).
     pub fn main_of_effect(k: EffectKind) -> Option<Param> {
         Some(match k {
@@ -278,11 +284,13 @@ pub struct LoopOptions {
     pub weights: [f64; 3],
     /// Relative error reduction below which an effect is "not significant". Default 0.15.
     pub significance: f64,
+    /// Effects the search may try; empty (the default): every applicable effect the model lacks.
+    pub candidates: Vec<crate::model::EffectKind>,
 }
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.15 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.15, candidates: Vec::new() }
     }
 }
 
@@ -321,6 +329,56 @@ pub fn evaluate(m: &Machine, reference: &Reference, opts: &LoopOptions) -> Resul
     Ok((c, 10f64.powf(off_db / 20.0)))
 }
 
+/// NRMSE (%) of each domain of `before` with its value in `after`.
+pub fn domain_pairs(before: &Comparison, after: &Comparison) -> Vec<(String, f64, f64)> {
+    before.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after.domain(&d.domain).map(|a| a.metrics.nrmse_percent).unwrap_or(f64::NAN))).collect()
+}
+
+/// Progress of fitting and diagnosis, shared by the worker threads: counts model evaluations
+/// against the number expected and asks the caller, after each one, whether to go on.
+pub struct LoopProgress<'a> {
+    done: std::sync::atomic::AtomicUsize,
+    total: std::sync::atomic::AtomicUsize,
+    cancelled: std::sync::atomic::AtomicBool,
+    report: &'a (dyn Fn(usize, usize) -> bool + Sync),
+}
+
+impl<'a> LoopProgress<'a> {
+    /// `report(done, expected)` is called after every model evaluation; returning `false`
+    /// cancels the work, which then ends with [`LoopError::Cancelled`].
+    pub fn new(report: &'a (dyn Fn(usize, usize) -> bool + Sync)) -> Self {
+        use std::sync::atomic::{AtomicBool, AtomicUsize};
+        Self { done: AtomicUsize::new(0), total: AtomicUsize::new(0), cancelled: AtomicBool::new(false), report }
+    }
+
+    /// Adds `n` expected evaluations.
+    pub fn expect(&self, n: usize) {
+        self.total.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Counts one evaluation; `false` when the caller cancelled.
+    pub fn tick(&self) -> bool {
+        use std::sync::atomic::Ordering::Relaxed;
+        let d = self.done.fetch_add(1, Relaxed) + 1;
+        let t = self.total.load(Relaxed).max(d);
+        if !(self.report)(d, t) {
+            self.cancelled.store(true, Relaxed);
+        }
+        !self.is_cancelled()
+    }
+
+    /// Whether the caller cancelled.
+    pub fn is_cancelled(&self) -> bool {
+        self.cancelled.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+/// Model evaluations [`fit`] makes for `params` over `sweeps` sweeps.
+pub fn fit_evaluations(m: &Machine, params: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
+    let n = opts.evaluations_per_parameter.max(3);
+    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() { 3 * n } else { n }).sum::<usize>()
+}
+
 /// Result of fitting.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Fit {
@@ -336,6 +394,9 @@ pub struct Fit {
     pub envelope_nrmse_after: f64,
     /// Evaluations used.
     pub evaluations: usize,
+    /// NRMSE (%) per domain before and after: (domain, before, after).
+    #[serde(default)]
+    pub domains: Vec<(String, f64, f64)>,
 }
 
 /// Golden-section search of `f` over `[a, b]` with `evals` evaluations, starting bracket known
@@ -375,7 +436,38 @@ fn golden(mut f: impl FnMut(f64) -> f64, a: f64, b: f64, evals: usize, x0: f64, 
 /// Fits `params` of `m` to `measured` (see the module doc). Parameters the machine lacks are
 /// skipped. Returns the fitted machine and the fit report.
 pub fn fit(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, opts: &LoopOptions) -> Result<(Machine, Fit), LoopError> {
+    fit_with_progress(m, reference, params, sweeps, opts, &LoopProgress::new(&|_, _| true))
+}
+
+/// [`fit`], counting each evaluation in `progress` (and stopping when it is cancelled).
+pub fn fit_with_progress(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
+    fit_impl(m, reference, params, &[], sweeps, opts, progress)
+}
+
+/// Evaluations of a local refinement (see [`fit_trial`]).
+fn refine_evaluations(opts: &LoopOptions) -> usize {
+    opts.evaluations_per_parameter.saturating_sub(3).max(3)
+}
+
+/// Fits an effect's `params` over their full range, then re-fits each of `refine` in a local
+/// bracket around its current value (± 16 % of its range): the calibrated parameters that had
+/// compensated for the missing effect (above all the noise level, which fills any energy the
+/// model lacks) are released when the effect is added, or the trial would judge the effect
+/// against a model tuned to do without it.
+pub fn fit_trial(m: &Machine, reference: &Reference, params: &[Param], refine: &[Param], opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
+    fit_impl(m, reference, params, refine, 1, opts, progress)
+}
+
+/// Model evaluations [`fit_trial`] makes.
+pub fn fit_trial_evaluations(m: &Machine, params: &[Param], refine: &[Param], opts: &LoopOptions) -> usize {
+    fit_evaluations(m, params, 1, opts) + refine.iter().filter(|p| p.get(m).is_some()).count() * refine_evaluations(opts)
+}
+
+fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Param], sweeps: usize, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
     let (c0, g0) = evaluate(m, reference, opts)?;
+    if !progress.tick() {
+        return Err(LoopError::Cancelled);
+    }
     let j0 = objective(&c0, &opts.weights);
     let mut best_m = m.clone();
     let mut best_j = j0;
@@ -383,34 +475,60 @@ pub fn fit(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, 
     let mut best_g = g0;
     let mut evals = 1usize;
     let params: Vec<Param> = params.iter().copied().filter(|p| p.get(m).is_some()).collect();
+    let refine: Vec<Param> = refine.iter().copied().filter(|p| p.get(m).is_some() && !params.contains(p)).collect();
+    let searches: Vec<(Param, bool)> = params.iter().map(|p| (*p, false)).chain(refine.iter().map(|p| (*p, true))).collect();
     for _ in 0..sweeps {
-        for &p in &params {
+        for &(p, local) in &searches {
             let (lo, hi, log) = p.bounds(&best_m);
             let to = |u: f64| if log { u.exp() } else { u };
             let from = |x: f64| if log { x.max(1e-300).ln() } else { x };
             let x0 = p.get(&best_m).unwrap_or(lo).clamp(lo, hi);
             let mut cache: Vec<(f64, f64, Comparison, f64)> = Vec::new();
             let base = best_m.clone();
-            let (u, j) = golden(
-                |u| {
-                    let mut t = base.clone();
-                    p.set(&mut t, to(u));
-                    evals += 1;
-                    match evaluate(&t, reference, opts) {
-                        Ok((c, g)) => {
-                            let j = objective(&c, &opts.weights);
-                            cache.push((u, j, c, g));
-                            j
-                        }
-                        Err(_) => f64::INFINITY,
+            let mut eval_at = |u: f64| {
+                if progress.is_cancelled() {
+                    return f64::INFINITY;
+                }
+                let mut t = base.clone();
+                p.set(&mut t, to(u));
+                evals += 1;
+                progress.tick();
+                match evaluate(&t, reference, opts) {
+                    Ok((c, g)) => {
+                        let j = objective(&c, &opts.weights);
+                        cache.push((u, j, c, g));
+                        j
                     }
-                },
-                from(lo),
-                from(hi),
-                opts.evaluations_per_parameter.max(3),
-                from(x0),
-                best_j,
-            );
+                    Err(_) => f64::INFINITY,
+                }
+            };
+            let mut n = opts.evaluations_per_parameter.max(3);
+            let (mut a, mut b) = (from(lo), from(hi));
+            let (mut u0, mut j0) = (from(x0), best_j);
+            if local {
+                let h = 0.16 * (b - a);
+                (a, b) = ((u0 - h).max(a), (u0 + h).min(b));
+                n = refine_evaluations(opts);
+            } else if p.multimodal() {
+                // A mode frequency has one local minimum per spectral feature it can sit on:
+                // scan a grid first, then refine between the best point's neighbours.
+                let grid: Vec<f64> = (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect();
+                let js: Vec<f64> = grid.iter().map(|&u| eval_at(u)).collect();
+                let i = (0..js.len()).min_by(|&x, &y| js[x].total_cmp(&js[y])).unwrap_or(0);
+                if js[i] < j0 {
+                    (u0, j0) = (grid[i], js[i]);
+                }
+                let h = (b - a) / (2 * n) as f64;
+                (a, b) = ((grid[i] - h).max(a), (grid[i] + h).min(b));
+                if !(a..=b).contains(&u0) {
+                    // The refinement bracket must hold the incumbent golden() starts from.
+                    (u0, j0) = (grid[i], js[i]);
+                }
+            }
+            let (u, j) = golden(eval_at, a, b, n, u0, j0);
+            if progress.is_cancelled() {
+                return Err(LoopError::Cancelled);
+            }
             if j < best_j {
                 p.set(&mut best_m, to(u));
                 best_j = j;
@@ -421,7 +539,7 @@ pub fn fit(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, 
             }
         }
     }
-    let fitted: Vec<(Param, f64)> = params.iter().filter_map(|p| p.get(&best_m).map(|v| (*p, v))).collect();
+    let fitted: Vec<(Param, f64)> = searches.iter().filter_map(|(p, _)| p.get(&best_m).map(|v| (*p, v))).collect();
     Ok((
         best_m,
         Fit {
@@ -432,6 +550,7 @@ pub fn fit(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, 
             envelope_nrmse_before: c0.envelope_nrmse(),
             envelope_nrmse_after: best_c.envelope_nrmse(),
             evaluations: evals,
+            domains: domain_pairs(&c0, &best_c),
         },
     ))
 }

@@ -2,7 +2,7 @@
 //! evidence in the residual map for that effect's signature with a trial — switch it on, fit
 //! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
 
-use super::calibrate::{calibration_parameters, evaluate, fit, objective, Fit, LoopError, LoopOptions, Param};
+use super::calibrate::{calibration_parameters, evaluate, fit_evaluations, fit_trial, fit_trial_evaluations, fit_with_progress, objective, Fit, LoopError, LoopOptions, LoopProgress, Param};
 use super::residual::{residual_map, ResidualMap};
 use super::{Comparison, Reference};
 use crate::kinematics::CharacteristicFrequency;
@@ -18,7 +18,7 @@ pub struct EffectTrial {
     pub effect: EffectKind,
     /// Fitted main parameter and value (None for a pure switch).
     pub parameter: Option<(Param, f64)>,
-    /// Other fitted parameters (e.g. the clearance for `load_zone`).
+    /// Other fitted parameters (e.g. the clearance for `load_zone`) and the re-fitted noise level.
     pub extra_parameters: Vec<(Param, f64)>,
     /// Objective (weighted NRMSE, %) without and with the effect.
     pub objective_before: f64,
@@ -26,8 +26,16 @@ pub struct EffectTrial {
     /// Envelope NRMSE (%) without and with the effect.
     pub envelope_nrmse_before: f64,
     pub envelope_nrmse_after: f64,
+    /// NRMSE (%) per domain without and with the effect: (domain, before, after).
+    #[serde(default)]
+    pub domains: Vec<(String, f64, f64)>,
     /// Relative objective reduction, 0–1 (negative: worse).
     pub reduction: f64,
+    /// Share of the *explainable* error this effect removes: `(before − after) / (before −
+    /// floor)`, where the floor is the calibrated model against realisations of itself (see
+    /// [`Diagnosis::floor_objective`]). 1 = everything above the floor is explained.
+    #[serde(default)]
+    pub explained: f64,
     /// Evidence from the residual map for this effect's signature.
     pub evidence: String,
     /// One sentence for the user.
@@ -43,6 +51,14 @@ pub struct Diagnosis {
     pub domains: Vec<(String, f64, f64)>,
     /// Where the calibrated model fails.
     pub residual_map: ResidualMap,
+    /// The objective a perfect model would still show: the calibrated model compared with
+    /// realisations of itself under other seeds (random noise, estimator scatter). The error
+    /// above this floor is what a missing effect can explain.
+    #[serde(default)]
+    pub floor_objective: f64,
+    /// The floor's NRMSE (%) per domain: (domain, NRMSE).
+    #[serde(default)]
+    pub floor_domains: Vec<(String, f64)>,
     /// Trials, best first.
     pub trials: Vec<EffectTrial>,
     /// The effect to add, if one is significant.
@@ -129,26 +145,84 @@ fn evidence(k: EffectKind, map: &ResidualMap) -> (String, f64) {
     (text, share)
 }
 
+/// Calibrated parameters every trial re-fits locally after fitting its effect (see
+/// [`fit_trial`]): the noise level absorbs whatever energy the model lacks.
+const TRIAL_REFINE: [Param; 1] = [Param::NoiseSnrDb];
+
+/// Seeds of the replicas behind [`seed_floor`].
+const FLOOR_SEEDS: [u64; 2] = [0x5EED_0001, 0x5EED_0002];
+
+/// The objective (and per-domain NRMSE) of `m` against realisations of itself with other seeds,
+/// averaged over [`FLOOR_SEEDS`]: what even a perfect model scores against this measurement's
+/// length and options, because noise, slip and the estimators are random. `like` supplies the
+/// duration, unit and metadata of the measurement. Each domain's RMSE is normalised by the
+/// normaliser of the real comparison `against` (the measurement's range, not the replica's), so
+/// floor and objective are on one scale.
+pub fn seed_floor(m: &Machine, like: &Signal, against: &Comparison, opts: &LoopOptions) -> Result<(f64, Vec<(String, f64)>), LoopError> {
+    let runs: Vec<Result<Comparison, LoopError>> = FLOOR_SEEDS
+        .par_iter()
+        .map(|&s| {
+            let mut twin = m.clone();
+            twin.seed = m.seed ^ s;
+            twin.duration_s = opts.fit_duration_s.min(like.duration_s());
+            let mut pseudo = crate::model::simulate(&twin)?;
+            pseudo.unit = like.unit.clone();
+            pseudo.meta.shaft_speed_hz = like.meta.shaft_speed_hz.or(pseudo.meta.shaft_speed_hz);
+            let r = Reference::new(&pseudo, &opts.compare)?;
+            Ok(evaluate(m, &r, opts)?.0)
+        })
+        .collect();
+    let runs: Vec<Comparison> = runs.into_iter().collect::<Result<_, _>>()?;
+    let n = runs.len() as f64;
+    let mut floor = against.clone();
+    for d in floor.domains.iter_mut() {
+        let rmse = runs.iter().filter_map(|c| c.domain(&d.domain)).map(|x| x.metrics.rmse).sum::<f64>() / n;
+        d.metrics.rmse = rmse;
+        d.metrics.nrmse_percent = if d.metrics.normaliser_value > 0.0 { 100.0 * rmse / d.metrics.normaliser_value } else { f64::NAN };
+    }
+    let domains = floor.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent)).collect();
+    Ok((objective(&floor, &opts.weights), domains))
+}
+
 /// Calibrates the model, then tries every applicable effect it lacks (in parallel), and ranks
-/// them. Returns the calibrated machine and the diagnosis. `progress(done, total)` reports
-/// finished trials.
-pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<(Machine, Diagnosis), LoopError> {
+/// them. Returns the calibrated machine and the diagnosis. `progress(done, expected)` is
+/// called after every model evaluation (from worker threads); returning `false` cancels, and
+/// the call ends with [`LoopError::Cancelled`].
+pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Diagnosis), LoopError> {
     let reference = Reference::new(measured, &opts.compare)?;
-    diagnose_with(m, &reference, opts, progress)
+    diagnose_with(m, &reference, opts, &LoopProgress::new(progress))
 }
 
 /// [`diagnose`] against a prepared [`Reference`].
-pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<(Machine, Diagnosis), LoopError> {
+pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let measured = reference;
-    let (cal_m, cal) = fit(m, measured, &calibration_parameters(m), opts.sweeps, opts)?;
+    let cal_params = calibration_parameters(m);
+    let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, m) && (opts.candidates.is_empty() || opts.candidates.contains(k))).collect();
+    progress.expect(
+        fit_evaluations(m, &cal_params, opts.sweeps, opts)
+            + 1
+            + FLOOR_SEEDS.len()
+            + candidates
+            .iter()
+            .map(|k| {
+                let mut t = m.clone();
+                t.effects.enable(*k);
+                fit_trial_evaluations(&t, &Param::of_effect(*k), &TRIAL_REFINE, opts)
+            })
+            .sum::<usize>(),
+    );
+    let (cal_m, cal) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
     let (c, _) = evaluate(&cal_m, measured, opts)?;
+    progress.tick();
     let (fams, shaft) = machine_families(&cal_m);
     let map = residual_map(&c, &fams, shaft);
     let j0 = objective(&c, &opts.weights);
     let env0 = c.envelope_nrmse();
-    let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !cal_m.effects.is_on(*k) && Effects::applicable(*k, &cal_m)).collect();
-    let total = candidates.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
+    let (floor, floor_domains) = seed_floor(&cal_m, measured.measured(), &c, opts)?;
+    for _ in FLOOR_SEEDS {
+        progress.tick();
+    }
+    let excess = j0 - floor;
     let trials: Vec<EffectTrial> = candidates
         .par_iter()
         .filter_map(|&k| {
@@ -172,26 +246,28 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 return None;
             }
             let params = Param::of_effect(k);
-            let result = if params.is_empty() {
-                evaluate(&t, measured, opts).ok().map(|(c, _)| (t.clone(), objective(&c, &opts.weights), c.envelope_nrmse()))
-            } else {
-                fit(&t, measured, &params, 1, opts).ok().map(|(fm, f)| (fm, f.objective_after, f.envelope_nrmse_after))
-            };
-            let r = result.map(|(fm, j, env)| {
+            let result = fit_trial(&t, measured, &params, &TRIAL_REFINE, opts, progress).ok().map(|(fm, f)| {
+                let after = |d: &str| f.domains.iter().find(|x| x.0 == d).map(|x| x.2).unwrap_or(f64::NAN);
+                let pairs = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after(&d.domain))).collect();
+                (fm, f.objective_after, f.envelope_nrmse_after, pairs)
+            });
+            let r = result.map(|(fm, j, env, domains)| {
                 let parameter = Param::main_of_effect(k).and_then(|p| p.get(&fm).map(|v| (p, v)));
-                let extra: Vec<(Param, f64)> = params.iter().filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(&fm).map(|v| (*p, v))).collect();
+                let extra: Vec<(Param, f64)> = params.iter().chain(TRIAL_REFINE.iter()).filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(&fm).map(|v| (*p, v))).collect();
                 let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
+                let explained = if excess > 0.0 { (j0 - j) / excess } else { 0.0 };
                 let (ev, _) = evidence(k, &map);
                 let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
                 let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
                 let summary = format!("{ev}; adding {}{pv} changes envelope NRMSE from {env0:.1} % to {env:.1} % (objective {j0:.1} → {j:.1})", k.name());
-                EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, reduction, evidence: ev, summary }
+                EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, summary }
             });
-            let d = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
-            progress(d, total);
             r
         })
         .collect();
+    if progress.is_cancelled() {
+        return Err(LoopError::Cancelled);
+    }
     let mut trials = trials;
     trials.sort_by(|a, b| b.reduction.total_cmp(&a.reduction));
     let best = trials.first().filter(|t| t.reduction >= opts.significance).map(|t| t.effect);
@@ -205,7 +281,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         ),
     };
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, trials, best, verdict }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, trials, best, verdict }))
 }
 
 /// One round of the loop.
@@ -230,8 +306,9 @@ pub struct Round {
 /// compare → diagnose → apply the best effect (with its fitted parameter) → repeat, for up to
 /// `rounds` rounds or until nothing significant is missing. Returns the final machine, the
 /// history, and the last diagnosis.
-pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
+pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     let reference = Reference::new(measured, &opts.compare)?;
+    let progress = &LoopProgress::new(progress);
     let mut current = m.clone();
     let mut history = Vec::new();
     let mut last = None;

@@ -33,6 +33,12 @@ pub struct CaseResult {
     pub verdict: String,
     /// Relative objective reduction of each trial, in ranking order.
     pub reductions: Vec<f64>,
+    /// The seed floor of the objective (see [`super::diagnose::seed_floor`]).
+    #[serde(default)]
+    pub floor_objective: f64,
+    /// The trials, best first (per-domain NRMSE before and after each).
+    #[serde(default)]
+    pub trials: Vec<super::diagnose::EffectTrial>,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -118,7 +124,7 @@ pub fn run_case(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_
     let (mut truth, model_m, true_parameter, snr_db) = make_case(base, hidden, seed);
     truth.duration_s = duration_s;
     let measured = model::simulate(&truth)?;
-    let (_, d) = diagnose(&model_m, &measured, opts, &|_, _| {})?;
+    let (_, d) = diagnose(&model_m, &measured, opts, &|_, _| true)?;
     let ranking: Vec<EffectKind> = d.trials.iter().map(|t| t.effect).collect();
     let rank_of_hidden = hidden.and_then(|k| ranking.iter().position(|x| *x == k).map(|i| i + 1));
     let env_before = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
@@ -134,6 +140,8 @@ pub fn run_case(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_
         envelope_nrmse_after: env_after,
         verdict: d.verdict,
         reductions: d.trials.iter().map(|t| t.reduction).collect(),
+        floor_objective: d.floor_objective,
+        trials: d.trials.clone(),
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

@@ -9,8 +9,8 @@ pub mod metrics;
 pub mod residual;
 
 pub use metrics::{metrics, pearson, xcorr_peak, Metrics, Normaliser};
-pub use calibrate::{evaluate, fit, objective, Fit, LoopError, LoopOptions, Param};
-pub use diagnose::{diagnose, diagnose_with, machine_families, run_loop, Diagnosis, EffectTrial, Round};
+pub use calibrate::{evaluate, fit, fit_with_progress, objective, Fit, LoopError, LoopOptions, LoopProgress, Param};
+pub use diagnose::{diagnose, diagnose_with, machine_families, run_loop, seed_floor, Diagnosis, EffectTrial, Round};
 pub use residual::{residual_map, ResidualItem, ResidualMap};
 
 use crate::dsp::{self, remez::BandpassSpec, spectrum::Spectrum};
