@@ -2,7 +2,8 @@
 //! (`signal::io`, `chain`, `dsp`, `kinematics`, `model`, `compare`) and packs the results for
 //! the views.
 
-use super::session::{Analysis, CompareResult, FirView, JobOutput, Origin, SignalEntry};
+use super::session::{Analysis, CompareResult, FirView, JobOutput, LoopResult, Origin, ScfResult, SignalEntry};
+use super::session_file::SavedSignal;
 use super::worker::JobHandle;
 use crate::chain::{Chain, ChainContext, Data};
 use crate::compare::{self, CompareOptions};
@@ -57,6 +58,80 @@ pub fn simulate_preset(id: u64, preset: &str, job: &JobHandle) -> Result<SignalE
     let (families, _) = compare::machine_families(&machine);
     let machine_families = families.into_iter().filter(|f| f.label == "GMF").collect();
     Ok(SignalEntry { id, signal, origin: Origin::Simulated { preset: preset.into() }, file: None, channels: Vec::new(), machine_families })
+}
+
+/// Simulates an edited machine with progress and cancel; the signal is listed as simulated from
+/// `label` (the preset it started from).
+pub fn simulate_machine(id: u64, machine: &model::Machine, label: &str, job: &JobHandle) -> Result<SignalEntry, String> {
+    machine.validate().map_err(|e| e.to_string())?;
+    job.set_step(format!("simulating {:.2} s of {}", machine.duration_s, machine.name));
+    let built = model::Model::build(machine).map_err(|e| e.to_string())?;
+    let mut signal = model::run(&built, |f| {
+        job.set_progress(f);
+        !job.cancelled()
+    })
+    .map_err(|e| e.to_string())?;
+    let on: Vec<&str> = machine.effects.enabled().into_iter().map(|k| k.name()).collect();
+    signal.name = format!("{label} model ({})", if on.is_empty() { "no effects".to_string() } else { on.join(", ") });
+    let (families, _) = compare::machine_families(machine);
+    let machine_families = families.into_iter().filter(|f| f.label == "GMF").collect();
+    Ok(SignalEntry { id, signal, origin: Origin::Simulated { preset: label.into() }, file: None, channels: Vec::new(), machine_families })
+}
+
+/// "Find missing effect": calibrates `machine` against `measured`, tries every candidate
+/// effect and ranks them (`compare::diagnose`). The progress bar counts model evaluations;
+/// Cancel makes the progress callback answer `false`, which stops the search.
+pub fn find_missing_effect(machine: &model::Machine, measured: &SignalEntry, opts: &compare::LoopOptions, job: &JobHandle) -> Result<LoopResult, String> {
+    let started = Instant::now();
+    machine.validate().map_err(|e| e.to_string())?;
+    job.set_step("calibrating, then one trial per candidate effect");
+    job.set_progress(0.0);
+    let report = |done: usize, expected: usize| {
+        job.set_progress(done as f64 / expected.max(1) as f64);
+        job.set_step(format!("model evaluation {done} of {expected}"));
+        !job.cancelled()
+    };
+    let (calibrated, diagnosis) = compare::diagnose(machine, &measured.signal, opts, &report).map_err(|e| match e {
+        compare::LoopError::Cancelled => "cancelled".to_string(),
+        e => format!("find missing effect against `{}`: {e}", measured.signal.name),
+    })?;
+    Ok(LoopResult { measured: measured.signal.name.clone(), options: opts.clone(), started_from: machine.clone(), calibrated, diagnosis, added: Vec::new(), seconds: started.elapsed().as_secs_f64() })
+}
+
+/// The cyclic spectral correlation of `signal` (Fast-SC), with the line families of `entry` for
+/// the α picks.
+pub fn compute_scf(entry: &SignalEntry, signal: &Signal, source: &str, params: &dsp::scf::ScfParams, job: &JobHandle) -> Result<ScfResult, String> {
+    let started = Instant::now();
+    job.set_step(format!("fast SCF, α {:.0}–{:.0} Hz, nperseg {}", params.alpha_min_hz, params.alpha_max_hz, params.nperseg));
+    params.validate(signal.fs_hz, signal.len()).map_err(|e| format!("SCF of `{}`: {e}", signal.name))?;
+    let map = dsp::scf::fast_scf(&signal.samples, signal.fs_hz, params).map_err(|e| format!("SCF of `{}`: {e}", signal.name))?;
+    let (families, shaft) = families_of(entry);
+    Ok(ScfResult { signal_name: signal.name.clone(), source: source.into(), unit: signal.unit.clone(), map, families, shaft_speed_hz: shaft, seconds: started.elapsed().as_secs_f64() })
+}
+
+/// Reads a measured signal of a saved session and applies its metadata edits.
+pub fn load_saved(id: u64, saved: &SavedSignal) -> Result<SignalEntry, String> {
+    let mut e = match (&saved.file, saved.bundled_demo) {
+        (_, true) => {
+            let mut e = demo_signal(id)?;
+            if let Some(c) = &saved.channel {
+                e.signal = io::mat::read_bytes(DEMO_BYTES, DEMO_FILE, &LoadOptions { channel: Some(c.clone()), ..Default::default() }).map_err(|e| e.to_string())?;
+                e.signal.meta.source = Some(format!("{DEMO_FILE} (bundled)"));
+            }
+            e
+        }
+        (Some(p), false) => load_file(id, p, saved.channel.clone())?,
+        (None, false) => return Err("a saved signal has neither a file nor the bundled demo".into()),
+    };
+    crate::dsp::error::check_fs(saved.fs_hz).map_err(|err| format!("signal `{}`: saved {err}", e.signal.name))?;
+    e.signal.fs_hz = saved.fs_hz;
+    e.signal.meta.shaft_speed_hz = saved.shaft_speed_hz;
+    if let Some(b) = &saved.bearing {
+        lookup_bearing(b).map_err(|err| format!("signal `{}`: saved bearing: {err}", e.signal.name))?;
+    }
+    e.signal.meta.bearing = saved.bearing.clone();
+    usable(&e.signal)?;
+    Ok(e)
 }
 
 /// The line families of a signal: its bearing's at its shaft speed (else the shaft alone),
@@ -231,6 +306,11 @@ pub fn pick(purpose: super::session::Purpose, start_dir: Option<PathBuf>) -> Opt
         Purpose::OpenSignal => d.add_filter("signals", &["mat", "wav", "csv", "tsv", "txt"]).pick_file(),
         Purpose::OpenChain => d.add_filter("chain", &["toml"]).pick_file(),
         Purpose::SaveChain => d.add_filter("chain", &["toml"]).set_file_name("chain.toml").save_file(),
+        Purpose::OpenSession => d.add_filter("twinscope session", &["json"]).pick_file(),
+        Purpose::SaveSession => d.add_filter("twinscope session", &["json"]).set_file_name("session.twinscope.json").save_file(),
+        Purpose::ExportCsv => d.add_filter("CSV", &["csv"]).set_file_name("view.csv").save_file(),
+        Purpose::ExportSvg => d.add_filter("SVG", &["svg"]).set_file_name("view.svg").save_file(),
+        Purpose::ExportPng => d.add_filter("PNG", &["png"]).set_file_name("view.png").save_file(),
     }
 }
 

@@ -6,8 +6,10 @@
 //! [`settings::Settings`]. `twinscope` with no arguments opens it on the bundled demo.
 
 pub mod app;
+pub mod export;
 pub mod jobs;
 pub mod session;
+pub mod session_file;
 pub mod settings;
 pub mod views;
 pub mod worker;

@@ -2,7 +2,9 @@
 //! [`super::settings::Settings`]); everything here is library data, drawn by the views.
 
 use crate::chain::{Chain, ChainResult};
-use crate::compare::{Comparison, CompareOptions, ResidualMap};
+use crate::compare::{Comparison, CompareOptions, Diagnosis, LoopOptions, ResidualMap, Round};
+use crate::dsp::scf::ScfMap;
+use crate::model::{EffectKind, Machine};
 use crate::dsp::remez::FirDesign;
 use crate::dsp::spectrum::Spectrum;
 use crate::kinematics::{CharacteristicFrequency, LabelledPeak, MarkerLine};
@@ -117,6 +119,77 @@ pub struct CompareResult {
     pub residual: ResidualMap,
 }
 
+/// A "Find missing effect" answer: the calibrated machine and the ranked trials.
+#[derive(Debug, Clone)]
+pub struct LoopResult {
+    /// The measured signal it was run against.
+    pub measured: String,
+    /// The options used.
+    pub options: LoopOptions,
+    /// The machine the search started from.
+    pub started_from: Machine,
+    /// The machine after calibration (the trials were run on it; Add applies to it).
+    pub calibrated: Machine,
+    /// The ranking, evidence and verdict.
+    pub diagnosis: Diagnosis,
+    /// Effects added from this ranking so far.
+    pub added: Vec<EffectKind>,
+    /// Seconds the search took.
+    pub seconds: f64,
+}
+
+/// The model of the model loop: the machine being edited, its last diagnosis and the history
+/// of rounds.
+#[derive(Debug, Clone)]
+pub struct ModelState {
+    /// The preset the machine started from.
+    pub preset: String,
+    /// The current machine (always valid: edits that fail `validate()` are not taken).
+    pub machine: Machine,
+    /// Bumped whenever the machine is replaced from outside the editor (preset, Add, calibration).
+    pub revision: u64,
+    /// The last "Find missing effect" answer.
+    pub result: Option<LoopResult>,
+    /// Envelope NRMSE and objective over rounds (`compare::Round`, as `run_loop` keeps it).
+    pub history: Vec<Round>,
+    /// Id of the loop's last simulated signal (replaced by the next simulation).
+    pub simulated_id: Option<u64>,
+}
+
+impl ModelState {
+    /// The model state for a bundled preset.
+    pub fn from_preset(name: &str) -> Result<Self, String> {
+        let machine = crate::model::preset(name).map_err(|e| e.to_string())?;
+        machine.validate().map_err(|e| e.to_string())?;
+        Ok(Self { preset: name.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None })
+    }
+
+    /// Replaces the machine from outside the editor.
+    pub fn replace_machine(&mut self, m: Machine) {
+        self.machine = m;
+        self.revision += 1;
+    }
+}
+
+/// A cyclic spectral correlation map with where it came from.
+#[derive(Debug, Clone)]
+pub struct ScfResult {
+    /// Name of the analysed signal.
+    pub signal_name: String,
+    /// What was analysed (`raw` or `stage <name> of chain <chain>`).
+    pub source: String,
+    /// Unit of the analysed signal (the SCF is in unit²/Hz).
+    pub unit: String,
+    /// The map.
+    pub map: ScfMap,
+    /// Line families for the α picks (shaft, bearing fault lines).
+    pub families: Vec<CharacteristicFrequency>,
+    /// Shaft speed, Hz.
+    pub shaft_speed_hz: Option<f64>,
+    /// Seconds the job took.
+    pub seconds: f64,
+}
+
 /// What jobs send back.
 #[derive(Debug)]
 pub enum JobOutput {
@@ -130,6 +203,13 @@ pub enum JobOutput {
     Chain(Chain, String),
     /// A file picked in a dialog, with what it is for.
     Picked(Purpose, PathBuf),
+    /// A "Find missing effect" answer.
+    Loop(Box<LoopResult>),
+    /// A cyclic spectral correlation map.
+    Scf(Box<ScfResult>),
+    /// A session file read back (applied by the app).
+    SessionFile(Box<super::session_file::SessionFile>, PathBuf),
+
     /// Something worth telling the user that is not an error.
     Info(String),
 }
@@ -143,6 +223,16 @@ pub enum Purpose {
     OpenChain,
     /// Save the chain as TOML.
     SaveChain,
+    /// Save the session.
+    SaveSession,
+    /// Open a session.
+    OpenSession,
+    /// Export the shown data as CSV.
+    ExportCsv,
+    /// Export the shown plot as SVG.
+    ExportSvg,
+    /// Export the window as PNG.
+    ExportPng,
 }
 
 /// Severity of a status message.
@@ -180,13 +270,19 @@ pub struct Session {
     pub comparison: Option<CompareResult>,
     /// Status messages, oldest first (the last few are shown).
     pub messages: Vec<StatusMessage>,
+    /// The model loop's machine, diagnosis and history.
+    pub model: ModelState,
+    /// The last SCF map.
+    pub scf: Option<ScfResult>,
+    /// The results summary of a reopened session (what was computed when it was saved).
+    pub restored_summary: Option<super::session_file::ResultsSummary>,
     next_id: u64,
 }
 
 impl Session {
     /// An empty session with `chain`.
-    pub fn new(chain: Chain) -> Self {
-        Self { signals: Vec::new(), selected: None, chain, chain_revision: 1, analysis: None, comparison: None, messages: Vec::new(), next_id: 1 }
+    pub fn new(chain: Chain, model: ModelState) -> Self {
+        Self { signals: Vec::new(), selected: None, chain, chain_revision: 1, analysis: None, comparison: None, messages: Vec::new(), model, scf: None, restored_summary: None, next_id: 1 }
     }
 
     /// A fresh signal id.
@@ -212,6 +308,11 @@ impl Session {
     /// The last error message, if the last message is an error.
     pub fn last_error(&self) -> Option<&str> {
         self.messages.iter().rev().find(|m| m.level == Level::Error).map(|m| m.text.as_str())
+    }
+
+    /// Indices of the measured signals.
+    pub fn measured_indices(&self) -> Vec<usize> {
+        self.signals.iter().enumerate().filter(|(_, s)| s.origin == Origin::Measured).map(|(i, _)| i).collect()
     }
 
     /// Replaces the chain (from a preset or a file).

@@ -1,7 +1,9 @@
 //! Persisted preferences (a small TOML file), kept apart from the runtime
 //! [`Session`](super::session::Session): what the analyst chose last time, not what is loaded.
 
+use crate::compare::{CompareOptions, LoopOptions};
 use crate::kinematics::PeakLabelling;
+use crate::model::EffectKind;
 use crate::signal::display::AmplitudeScale;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -30,6 +32,14 @@ pub struct Settings {
     pub recent_files: Vec<PathBuf>,
     /// Directory of the last file dialog.
     pub last_dir: Option<PathBuf>,
+    /// Model loop: simulated (and compared) duration of each model evaluation, s.
+    pub loop_fit_duration_s: f64,
+    /// Model loop: golden-section evaluations per parameter and sweep.
+    pub loop_evaluations_per_parameter: usize,
+    /// Model loop: coordinate-descent sweeps of the calibration.
+    pub loop_sweeps: usize,
+    /// Model loop: the effects the search may try; empty = every applicable effect the model lacks.
+    pub loop_candidates: Vec<EffectKind>,
 }
 
 impl Default for Settings {
@@ -45,6 +55,10 @@ impl Default for Settings {
             label_tolerance_percent: 1.0,
             recent_files: Vec::new(),
             last_dir: None,
+            loop_fit_duration_s: LoopOptions::default().fit_duration_s,
+            loop_evaluations_per_parameter: LoopOptions::default().evaluations_per_parameter,
+            loop_sweeps: LoopOptions::default().sweeps,
+            loop_candidates: Vec::new(),
         }
     }
 }
@@ -86,6 +100,18 @@ impl Settings {
         self.recent_files.truncate(10);
         if let Some(d) = path.parent() {
             self.last_dir = Some(d.to_path_buf());
+        }
+    }
+
+    /// The loop options from these settings, comparing with `compare` (the chain's band).
+    pub fn loop_options(&self, compare: CompareOptions) -> LoopOptions {
+        LoopOptions {
+            compare,
+            fit_duration_s: self.loop_fit_duration_s,
+            evaluations_per_parameter: self.loop_evaluations_per_parameter,
+            sweeps: self.loop_sweeps,
+            candidates: self.loop_candidates.clone(),
+            ..Default::default()
         }
     }
 

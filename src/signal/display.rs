@@ -133,6 +133,133 @@ pub fn scale_values(values: &[f64], scale: AmplitudeScale, power: bool) -> Vec<f
     values.iter().map(|&v| factor * if v.is_finite() && v > 0.0 { v } else { floor }.log10()).collect()
 }
 
+/// A 2-D map (e.g. the SCF `|S(α, f)|`) reduced to a display grid.
+///
+/// Row-major `[row][col]`: rows are the map's first axis (α for an SCF map), columns its second
+/// (f). Each display cell holds the **maximum** of the map cells it covers, so a narrow ridge
+/// (a cyclic line at a bearing fault frequency) survives any reduction.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DisplayGrid {
+    /// Centre coordinate of each display row (e.g. α in Hz): the mean of the first and last
+    /// map row it covers.
+    pub row_coord: Vec<f64>,
+    /// Centre coordinate of each display column (e.g. f in Hz).
+    pub col_coord: Vec<f64>,
+    /// Cell values, row-major, `row_coord.len() × col_coord.len()`.
+    pub values: Vec<f64>,
+    /// Coordinates of the first and last map row covered.
+    pub row_extent: [f64; 2],
+    /// Coordinates of the first and last map column covered.
+    pub col_extent: [f64; 2],
+    /// Map rows per display row (the last one may cover fewer).
+    pub rows_per_cell: usize,
+    /// Map columns per display column.
+    pub cols_per_cell: usize,
+    /// Smallest and largest finite cell value (`(NaN, NaN)` when there is none).
+    pub min: f64,
+    pub max: f64,
+}
+
+impl DisplayGrid {
+    /// Number of display rows.
+    pub fn rows(&self) -> usize {
+        self.row_coord.len()
+    }
+
+    /// Number of display columns.
+    pub fn cols(&self) -> usize {
+        self.col_coord.len()
+    }
+
+    /// Value of display cell `(r, c)`, or `None` outside the grid.
+    pub fn get(&self, r: usize, c: usize) -> Option<f64> {
+        (r < self.rows() && c < self.cols()).then(|| self.values[r * self.cols() + c])
+    }
+}
+
+/// Max-pooling of a row-major map `values` (`row_coord.len() × col_coord.len()`) to at most
+/// `out_rows × out_cols` display cells, over the rows whose coordinate lies in
+/// `[row_lo, row_hi]` and the columns in `[col_lo, col_hi]` (bounds in either order; non-finite
+/// bounds mean the whole axis).
+///
+/// Method: the selected rows are split into runs of `ceil(n_rows / out_rows)` rows, the columns
+/// likewise; each display cell is the maximum of its block (NaN cells are ignored; a block of
+/// NaN only gives NaN). One pass over the selected cells. With fewer map cells than display
+/// cells, the map is returned as is (`rows_per_cell = cols_per_cell = 1`).
+///
+/// Returns an empty grid when the shapes disagree, nothing lies in the ranges, or `out_rows` or
+/// `out_cols` is 0. Never panics.
+#[allow(clippy::too_many_arguments)]
+pub fn max_pool_map(values: &[f64], row_coord: &[f64], col_coord: &[f64], row_range: (f64, f64), col_range: (f64, f64), out_rows: usize, out_cols: usize) -> DisplayGrid {
+    let (nr, nc) = (row_coord.len(), col_coord.len());
+    if nr == 0 || nc == 0 || values.len() != nr * nc || out_rows == 0 || out_cols == 0 {
+        return DisplayGrid { min: f64::NAN, max: f64::NAN, ..Default::default() };
+    }
+    let select = |coord: &[f64], (a, b): (f64, f64)| -> Option<(usize, usize)> {
+        let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+        let lo = if lo.is_finite() { lo } else { f64::NEG_INFINITY };
+        let hi = if hi.is_finite() { hi } else { f64::INFINITY };
+        let first = coord.iter().position(|&x| x >= lo && x <= hi)?;
+        let last = coord.iter().rposition(|&x| x >= lo && x <= hi)?;
+        Some((first, last + 1))
+    };
+    let (Some((r0, r1)), Some((c0, c1))) = (select(row_coord, row_range), select(col_coord, col_range)) else {
+        return DisplayGrid { min: f64::NAN, max: f64::NAN, ..Default::default() };
+    };
+    let rpc = (r1 - r0).div_ceil(out_rows).max(1);
+    let cpc = (c1 - c0).div_ceil(out_cols).max(1);
+    let gr = (r1 - r0).div_ceil(rpc);
+    let gc = (c1 - c0).div_ceil(cpc);
+    let mut out = vec![f64::NAN; gr * gc];
+    for r in r0..r1 {
+        let orow = (r - r0) / rpc;
+        let src = &values[r * nc + c0..r * nc + c1];
+        let dst = &mut out[orow * gc..(orow + 1) * gc];
+        for (j, &v) in src.iter().enumerate() {
+            let d = &mut dst[j / cpc];
+            // NaN-ignoring maximum: a NaN cell never replaces a number.
+            if !v.is_nan() && (d.is_nan() || v > *d) {
+                *d = v;
+            }
+        }
+    }
+    let centre = |coord: &[f64], start: usize, end: usize, per: usize, k: usize| -> f64 {
+        let a = start + k * per;
+        let b = (a + per).min(end) - 1;
+        0.5 * (coord[a] + coord[b])
+    };
+    let row_c = (0..gr).map(|k| centre(row_coord, r0, r1, rpc, k)).collect();
+    let col_c = (0..gc).map(|k| centre(col_coord, c0, c1, cpc, k)).collect();
+    let finite = out.iter().copied().filter(|v| v.is_finite());
+    let (min, max) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let (min, max) = if min <= max { (min, max) } else { (f64::NAN, f64::NAN) };
+    DisplayGrid { row_coord: row_c, col_coord: col_c, values: out, row_extent: [row_coord[r0], row_coord[r1 - 1]], col_extent: [col_coord[c0], col_coord[c1 - 1]], rows_per_cell: rpc, cols_per_cell: cpc, min, max }
+}
+
+/// The perceptually uniform "viridis" colour scale (van der Walt & Smith, matplotlib 2.0) as
+/// sRGB bytes for `t` in `[0, 1]` (clamped; NaN gives the bottom colour): dark blue at 0,
+/// green at 0.5, yellow at 1. Piecewise-linear between nine samples of the published table;
+/// the lightness rises monotonically, so the scale prints readably in grey.
+pub fn viridis(t: f64) -> [u8; 3] {
+    const STOPS: [[f64; 3]; 9] = [
+        [68.0, 1.0, 84.0],
+        [71.0, 44.0, 122.0],
+        [59.0, 81.0, 139.0],
+        [44.0, 113.0, 142.0],
+        [33.0, 144.0, 141.0],
+        [39.0, 173.0, 129.0],
+        [92.0, 200.0, 99.0],
+        [170.0, 220.0, 50.0],
+        [253.0, 231.0, 37.0],
+    ];
+    let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };
+    let x = t * (STOPS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(STOPS.len() - 2);
+    let w = x - i as f64;
+    let c = |k: usize| (STOPS[i][k] + w * (STOPS[i + 1][k] - STOPS[i][k])).round().clamp(0.0, 255.0) as u8;
+    [c(0), c(1), c(2)]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,5 +319,79 @@ mod tests {
         assert!((a[2] - 40.0).abs() < 1e-12);
         let p = scale_values(&v, AmplitudeScale::Db, true);
         assert!((p[2] - 20.0).abs() < 1e-12);
+    }
+    /// Max-pooling keeps a one-cell ridge at its place and value, however strong the
+    /// reduction, and agrees with a naive block maximum everywhere.
+    #[test]
+    fn max_pool_keeps_a_single_cell_ridge_and_matches_naive_blocks() {
+        let (nr, nc) = (5000, 257);
+        let rows: Vec<f64> = (0..nr).map(|i| i as f64 * 0.1).collect();
+        let cols: Vec<f64> = (0..nc).map(|j| j as f64 * 23.4).collect();
+        let mut v: Vec<f64> = (0..nr * nc).map(|k| 1e-3 * ((k as f64) * 0.7).sin().abs()).collect();
+        let (ri, cj) = (1623, 101);
+        v[ri * nc + cj] = 2.5;
+        v[7] = f64::NAN;
+        let g = max_pool_map(&v, &rows, &cols, (f64::NEG_INFINITY, f64::INFINITY), (f64::NAN, f64::NAN), 120, 64);
+        assert_eq!((g.rows_per_cell, g.cols_per_cell), (42, 5));
+        assert_eq!((g.rows(), g.cols()), (120, 52));
+        assert_eq!(g.max, 2.5);
+        let k = g.values.iter().position(|&x| x == 2.5).unwrap();
+        assert_eq!((k / g.cols(), k % g.cols()), (ri / 42, cj / 5));
+        // the ridge's display row covers its α
+        let (r, c) = (k / g.cols(), k % g.cols());
+        assert!((rows[r * 42]..=rows[(r * 42 + 41).min(nr - 1)]).contains(&rows[ri]));
+        assert!((g.row_coord[r] - 0.5 * (rows[r * 42] + rows[r * 42 + 41])).abs() < 1e-9);
+        assert!((g.col_coord[c] - 0.5 * (cols[c * 5] + cols[c * 5 + 4])).abs() < 1e-9);
+        // naive block maximum
+        for r in [0usize, 37, 119] {
+            for c in [0usize, 20, 51] {
+                let mut m = f64::NAN;
+                for i in r * 42..((r + 1) * 42).min(nr) {
+                    for j in c * 5..((c + 1) * 5).min(nc) {
+                        let x = v[i * nc + j];
+                        if !x.is_nan() && (m.is_nan() || x > m) {
+                            m = x;
+                        }
+                    }
+                }
+                assert_eq!(g.get(r, c), Some(m), "cell ({r}, {c})");
+            }
+        }
+        assert!(g.min > 0.0 && g.min < 1e-3);
+    }
+
+    /// A coordinate range selects rows and columns; degenerate inputs give an empty grid.
+    #[test]
+    fn max_pool_ranges_and_degenerate_inputs() {
+        let rows = [0.0, 1.0, 2.0, 3.0];
+        let cols = [10.0, 20.0, 30.0];
+        let v: Vec<f64> = (0..12).map(|k| k as f64).collect();
+        let g = max_pool_map(&v, &rows, &cols, (3.0, 1.0), (15.0, 30.0), 10, 10);
+        assert_eq!(g.row_coord, vec![1.0, 2.0, 3.0]);
+        assert_eq!((g.row_extent, g.col_extent), ([1.0, 3.0], [20.0, 30.0]));
+        assert_eq!(g.col_coord, vec![20.0, 30.0]);
+        assert_eq!(g.values, vec![4.0, 5.0, 7.0, 8.0, 10.0, 11.0]);
+        assert_eq!((g.min, g.max), (4.0, 11.0));
+        let g = max_pool_map(&v, &rows, &cols, (0.0, 3.0), (10.0, 30.0), 2, 1);
+        assert_eq!(g.values, vec![5.0, 11.0]);
+        assert_eq!(g.row_coord, vec![0.5, 2.5]);
+        assert!(max_pool_map(&v[..11], &rows, &cols, (0.0, 3.0), (0.0, 1e9), 2, 2).values.is_empty());
+        assert!(max_pool_map(&v, &rows, &cols, (5.0, 6.0), (0.0, 1e9), 2, 2).values.is_empty());
+        assert!(max_pool_map(&v, &rows, &cols, (0.0, 3.0), (0.0, 1e9), 0, 2).max.is_nan());
+    }
+
+    #[test]
+    fn viridis_ends_and_rising_lightness() {
+        assert_eq!(viridis(0.0), [68, 1, 84]);
+        assert_eq!(viridis(1.0), [253, 231, 37]);
+        assert_eq!(viridis(-3.0), viridis(0.0));
+        assert_eq!(viridis(f64::NAN), viridis(0.0));
+        let luma = |c: [u8; 3]| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
+        let mut last = -1.0;
+        for i in 0..=100 {
+            let l = luma(viridis(i as f64 / 100.0));
+            assert!(l > last, "lightness falls at {i} %");
+            last = l;
+        }
     }
 }

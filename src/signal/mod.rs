@@ -4,6 +4,7 @@
 //! and the machine metadata known for it. [`io`] reads and writes it.
 
 pub mod display;
+pub mod export;
 pub mod io;
 pub mod synth;
 

@@ -6,13 +6,18 @@
 pub mod chain;
 pub mod compare;
 pub mod filter;
+pub mod model_loop;
+pub mod scf;
 pub mod signals;
 pub mod spectra;
 pub mod time;
 
-use super::session::Session;
+use super::session::{Purpose, Session};
 use super::settings::Settings;
 use crate::chain::Chain;
+use crate::dsp::scf::ScfParams;
+use crate::model::{EffectKind, Machine};
+use crate::signal::export::PlotData;
 use std::path::PathBuf;
 
 /// What a view asks the app to do.
@@ -44,10 +49,34 @@ pub enum Command {
     SaveChain(PathBuf),
     /// Run the chain on the selected signal.
     RunChain,
-    /// Simulate a machine preset.
-    Simulate(String),
     /// Compare a measured with a simulated signal (indices).
     Compare { measured: usize, simulated: usize },
+    /// Model loop: start again from a bundled machine preset.
+    LoadMachinePreset(String),
+    /// Model loop: take an edited (valid) machine.
+    SetMachine(Box<Machine>),
+    /// Model loop: take the calibrated machine of the last search.
+    UseCalibrated,
+    /// Model loop: simulate the current machine, then compare it with a measured signal.
+    SimulateModel { measured: Option<usize> },
+    /// Model loop: calibrate and rank the missing effects against a measured signal.
+    FindMissingEffect { measured: usize },
+    /// Model loop: apply a ranked trial to the calibrated machine, re-simulate and re-compare.
+    AddTrial { effect: EffectKind, measured: Option<usize> },
+    /// Compute the SCF of the selected signal (`raw`) or of a time-domain stage of the last run.
+    ComputeScf { source: String, params: ScfParams },
+    /// Open a file dialog for a purpose (sessions, exports).
+    Dialog(Purpose),
+    /// Save the session to a path.
+    SaveSession(PathBuf),
+    /// Reopen a session from a path.
+    OpenSession(PathBuf),
+    /// Write the shown data of the active view as CSV.
+    ExportCsv(PathBuf),
+    /// Write the shown plot of the active view as SVG.
+    ExportSvg(PathBuf),
+    /// Write the window as PNG (on the next rendered frame).
+    ExportPng(PathBuf),
     /// Cancel a job.
     Cancel(u64),
     /// Change the persisted preferences.
@@ -62,6 +91,35 @@ pub trait View {
     fn title(&self) -> &'static str;
     /// Draws the session's results; returns what the user asked for.
     fn ui(&mut self, ui: &mut egui::Ui, session: &Session, settings: &Settings) -> Option<Command>;
+    /// The data the view shows, for CSV/SVG export (`None`: nothing to export).
+    fn plot_data(&self, _session: &Session, _settings: &Settings) -> Option<PlotData> {
+        None
+    }
+}
+
+/// Library text made drawable with egui's bundled fonts, which lack arrows: `→` becomes `->`.
+pub fn drawable(s: &str) -> String {
+    s.replace('→', "->")
+}
+
+/// The unit of a model parameter from its name (units are in the names), for display.
+pub fn unit_of(name: &str) -> &'static str {
+    let n = name.rsplit('.').next().unwrap_or(name);
+    if n.ends_with("_hz") {
+        "Hz"
+    } else if n.ends_with("_kg_m") {
+        "kg·m"
+    } else if n.ends_with("_m") {
+        "m"
+    } else if n.ends_with("_n") {
+        "N"
+    } else if n.ends_with("_db") {
+        "dB"
+    } else if n.ends_with("_percent") {
+        "%"
+    } else {
+        ""
+    }
 }
 
 /// `value` with its unit, or `-`.
