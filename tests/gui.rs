@@ -217,9 +217,13 @@ fn scf_view_shows_surface_colour_scale_and_slices() {
             }
         }
     }
+    // 3D surface, linear: the colour scale's maximum is that |S|, in g²/Hz, to its 3 digits
+    let shown = labels_containing(&h, "max ");
+    assert_eq!(shown.len(), 1, "{shown:?}");
+    let v: f64 = shown[0].trim_start_matches("max ").trim_end_matches(" g²/Hz").parse().unwrap();
+    assert!((v / max - 1.0).abs() < 0.01, "colour scale max {v} vs |S| max {max}");
+    assert!(h.query_by_label("|S(α, f)| (g²/Hz)").is_some(), "colour scale title");
     let want = format!("max {:.1} dB", 10.0 * max.log10());
-    assert!(h.query_by_label(&want).is_some(), "colour scale shows {want}; labels with max: {:?}", labels_containing(&h, "max "));
-    assert!(h.query_by_label("|S(α, f)| (dB re 1 g²/Hz)").is_some() || !labels_containing(&h, "|S(α, f)| (dB re 1").is_empty(), "colour scale title");
     let alpha = labels_containing(&h, "α (Hz): ");
     assert_eq!(alpha.len(), 1, "{alpha:?}");
     let (lo, hi) = alpha[0].trim_start_matches("α (Hz): ").split_once(" – ").map(|(a, b)| (a.parse::<f64>().unwrap(), b.parse::<f64>().unwrap())).unwrap();
@@ -228,7 +232,8 @@ fn scf_view_shows_surface_colour_scale_and_slices() {
 
     h.get_by_label("2D map").click();
     h.run_steps(3);
-    assert!(h.query_by_label(&want).is_some(), "the 2D map has the same colour scale");
+    assert!(h.query_by_label(&want).is_some(), "the 2D map (dB) shows {want}: {:?}", labels_containing(&h, "max "));
+    assert!(h.query_by_label("|S(α, f)| (dB re 1 g²/Hz)").is_some(), "colour scale title in dB");
     // with the bearing known, Compute SCF again: the α picks include the fault frequencies
     assert!(h.query_all_by_label_contains("BPFI ").next().is_none());
     h.state_mut().execute(Command::SetMetadata { index: 0, fs_hz: 12000.0, shaft_speed_hz: Some(1797.0 / 60.0), bearing: Some("SKF 6205-2RS JEM".into()) });

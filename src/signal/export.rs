@@ -90,13 +90,15 @@ fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
-fn tick_text(t: f64) -> String {
+/// A tick label: plain digits in 1e-3..1e5 (trailing zeros dropped), else `1.23e-5`.
+pub fn tick_label(t: f64) -> String {
     let a = t.abs();
     if a != 0.0 && !(1e-3..1e5).contains(&a) {
         format!("{t:.2e}")
     } else {
         let s = format!("{t:.4}");
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
+        let s = if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.') } else { &s };
+        if s == "-0" { "0".to_string() } else { s.to_string() }
     }
 }
 
@@ -142,11 +144,11 @@ pub fn to_svg(p: &PlotData, width_px: u32, height_px: u32) -> String {
     let sy = |y: f64| mt + ph - (y - y0) / (y1 - y0) * ph;
     for t in nice_ticks(x0, x1, 8) {
         let xp = sx(t);
-        svg.push_str(&format!("<line x1=\"{xp:.1}\" y1=\"{:.1}\" x2=\"{xp:.1}\" y2=\"{:.1}\" stroke=\"#ddd\"/><text x=\"{xp:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>\n", mt, mt + ph, mt + ph + 14.0, tick_text(t)));
+        svg.push_str(&format!("<line x1=\"{xp:.1}\" y1=\"{:.1}\" x2=\"{xp:.1}\" y2=\"{:.1}\" stroke=\"#ddd\"/><text x=\"{xp:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>\n", mt, mt + ph, mt + ph + 14.0, tick_label(t)));
     }
     for t in nice_ticks(y0, y1, 6) {
         let yp = sy(t);
-        svg.push_str(&format!("<line x1=\"{ml}\" y1=\"{yp:.1}\" x2=\"{:.1}\" y2=\"{yp:.1}\" stroke=\"#ddd\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>\n", ml + pw, ml - 4.0, yp + 4.0, tick_text(t)));
+        svg.push_str(&format!("<line x1=\"{ml}\" y1=\"{yp:.1}\" x2=\"{:.1}\" y2=\"{yp:.1}\" stroke=\"#ddd\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>\n", ml + pw, ml - 4.0, yp + 4.0, tick_label(t)));
     }
     for (k, s) in p.series.iter().enumerate() {
         let colour = PALETTE[k % PALETTE.len()];
@@ -249,6 +251,10 @@ mod tests {
         assert_eq!(nice_ticks(-0.13, 0.42, 5), vec![0.0, 0.2, 0.4]);
         assert_eq!(nice_ticks(-25.0, 12.0, 4), vec![-20.0, -10.0, 0.0, 10.0]);
         assert!(nice_ticks(1.0, 1.0, 5).is_empty());
+        assert_eq!(tick_label(0.0), "0");
+        assert_eq!(tick_label(0.5), "0.5");
+        assert_eq!(tick_label(2000.0), "2000");
+        assert_eq!(tick_label(6e-5), "6.00e-5");
     }
 
     /// The SVG names the axes and series, escapes text, draws one polyline per finite run, and

@@ -17,7 +17,7 @@ use crate::dsp::scf::ScfParams;
 use crate::gui::session::{ScfResult, Session};
 use crate::gui::settings::Settings;
 use crate::signal::display::{max_pool_map, scale_values, viridis, AmplitudeScale, DisplayGrid};
-use crate::signal::export::{nice_ticks, PlotData, Series};
+use crate::signal::export::{nice_ticks, tick_label, PlotData, Series};
 use egui::{pos2, vec2, Color32, Pos2, RichText, Sense, Stroke};
 use egui_plot::{Legend, Line, Plot, PlotImage, PlotPoint, PlotPoints, VLine};
 
@@ -59,7 +59,8 @@ pub struct ScfView {
     /// Shown as 3D surface, 2D map or α-slices.
     pub mode: ScfMode,
     quantity: ScfQuantity,
-    db: bool,
+    /// dB or linear, per mode (3D surface, 2D map, α-slices).
+    db: [bool; 3],
     dynamic_range_db: f64,
     alpha_lo_hz: f64,
     alpha_hi_hz: f64,
@@ -82,7 +83,9 @@ impl Default for ScfView {
         Self {
             mode: ScfMode::Surface,
             quantity: ScfQuantity::Magnitude,
-            db: true,
+            // Linear in 3D (the cyclic lines stand up as peaks), dB on the map and the slices
+            // (the weaker lines stay visible).
+            db: [false, true, true],
             dynamic_range_db: 40.0,
             alpha_lo_hz: 5.0,
             alpha_hi_hz: 500.0,
@@ -124,7 +127,7 @@ impl ColourScale {
         } else if self.unit.is_empty() {
             format!("{v:.3}")
         } else {
-            format!("{} {}", super::fmt_num(v), self.unit)
+            format!("{} {}", tick_label(v), self.unit)
         }
     }
 }
@@ -144,8 +147,16 @@ impl ScfView {
         }
     }
 
+    fn mode_index(&self) -> usize {
+        match self.mode {
+            ScfMode::Surface => 0,
+            ScfMode::Map => 1,
+            ScfMode::Slices => 2,
+        }
+    }
+
     fn uses_db(&self) -> bool {
-        self.db && self.quantity == ScfQuantity::Magnitude
+        self.db[self.mode_index()] && self.quantity == ScfQuantity::Magnitude
     }
 
     /// The map pooled to `rows × cols` over the shown α range, in display units (dB when
@@ -225,8 +236,9 @@ impl ScfView {
             ui.selectable_value(&mut self.quantity, ScfQuantity::Magnitude, "|S|");
             ui.selectable_value(&mut self.quantity, ScfQuantity::Coherence, "coherence |γ|");
             if self.quantity == ScfQuantity::Magnitude {
-                ui.checkbox(&mut self.db, "dB");
-                if self.db && self.mode != ScfMode::Slices {
+                let i = self.mode_index();
+                ui.checkbox(&mut self.db[i], "dB");
+                if self.db[i] && self.mode != ScfMode::Slices {
                     ui.add(egui::DragValue::new(&mut self.dynamic_range_db).range(3.0..=200.0).suffix(" dB range"));
                 }
             }
@@ -259,14 +271,14 @@ impl ScfView {
             ui.painter().rect_stroke(rect, 0.0, Stroke::new(1.0, ui.visuals().weak_text_color()), egui::StrokeKind::Outside);
             for t in nice_ticks(s.lo, s.hi, 4) {
                 let y = rect.bottom() - s.t(t) as f32 * rect.height();
-                ui.painter().text(pos2(rect.right() + 4.0, y), egui::Align2::LEFT_CENTER, if s.db { format!("{t:.0}") } else { super::fmt_num(t) }, egui::FontId::proportional(10.0), ui.visuals().text_color());
+                ui.painter().text(pos2(rect.right() + 4.0, y), egui::Align2::LEFT_CENTER, tick_label(t), egui::FontId::proportional(10.0), ui.visuals().text_color());
             }
             ui.label(format!("min {}", s.text(s.lo)));
         });
     }
 
     fn surface_ui(&mut self, ui: &mut egui::Ui, r: &ScfResult) {
-        let want = (90, 64);
+        let want = (240, 64);
         let stale = self.surface.as_ref().map(|(k, _)| k) != Some(&self.grid_key_only(r, want.0, want.1));
         if stale {
             self.surface = Some(self.grid(r, want.0, want.1));
@@ -300,18 +312,34 @@ impl ScfView {
             }
             let rect = resp.rect;
             painter.rect_filled(rect, 4.0, ui.visuals().extreme_bg_color);
-            let c = rect.center() + vec2(0.0, 0.06 * rect.height());
-            let base = 0.36 * rect.width().min(rect.height() * 1.5) * self.zoom;
             let (cy, sy) = (self.yaw.cos(), self.yaw.sin());
             let (cp, sp) = (self.pitch.cos(), self.pitch.sin());
-            // World: x = α (−1..1), y = f (−1..1), z = value (−0.5..0.5).
-            let project = |x: f32, y: f32, z: f32| -> (Pos2, f32) {
+            // World: x = α (−1..1), y = f (−1..1), z = value (−0.5..0.5). The camera looks
+            // down at `pitch`, turned by `yaw`, with a mild perspective; `unit` gives the
+            // screen offset per unit of scale and the depth (larger = farther).
+            let unit = |x: f32, y: f32, z: f32| -> (egui::Vec2, f32) {
                 let x1 = x * cy - y * sy;
                 let y1 = x * sy + y * cy;
                 let depth = y1 * cp - z * sp;
                 let up = z * cp + y1 * sp;
-                let k = base * 4.0 / (4.0 + depth);
-                (pos2(c.x + x1 * k, c.y - up * k), depth)
+                let k = 4.0 / (4.0 + depth);
+                (vec2(x1 * k, -up * k), depth)
+            };
+            // Fit the box with its axis labels into the rectangle, then apply the zoom.
+            let mut lo = vec2(f32::INFINITY, f32::INFINITY);
+            let mut hi = vec2(f32::NEG_INFINITY, f32::NEG_INFINITY);
+            for (x, y, z) in [(-1.0, -1.0, -0.5), (1.0, -1.0, -0.5), (1.0, 1.0, -0.5), (-1.0, 1.0, -0.5), (-1.0, -1.0, 0.5), (1.0, -1.0, 0.5), (1.0, 1.0, 0.5), (-1.0, 1.0, 0.5), (0.0, -1.45, -0.5), (1.5, 0.0, -0.5), (-1.0, 1.0, 0.7)] {
+                let (q, _) = unit(x, y, z);
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+            let margin = 28.0;
+            let span = (hi - lo).max(vec2(1e-3, 1e-3));
+            let base = ((rect.width() - 2.0 * margin) / span.x).min((rect.height() - 2.0 * margin) / span.y).max(1.0) * self.zoom;
+            let c = rect.center() - base * (lo + hi) / 2.0;
+            let project = |x: f32, y: f32, z: f32| -> (Pos2, f32) {
+                let (q, depth) = unit(x, y, z);
+                (c + base * q, depth)
             };
             let (nr, nc) = (g.rows(), g.cols());
             // cell centres placed by their coordinates, so the axis ticks read true
@@ -329,6 +357,13 @@ impl ScfView {
                 painter.line_segment([project(a.0, a.1, -0.5).0, project(b.0, b.1, -0.5).0], Stroke::new(1.0, weak));
             }
             painter.line_segment([project(-1.0, 1.0, -0.5).0, project(-1.0, 1.0, 0.5).0], Stroke::new(1.0, weak));
+            // the shaft and fault cyclic frequencies on the floor, labelled at the α axis
+            for (label, a) in fault_alphas(r, a0, a1) {
+                let x = -1.0 + 2.0 * ((a - a0) / (a1 - a0).max(1e-12)) as f32;
+                let col = family_colour(&label);
+                painter.line_segment([project(x, -1.0, -0.5).0, project(x, 1.0, -0.5).0], Stroke::new(1.0, col.gamma_multiply(0.8)));
+                painter.text(project(x, -1.0, -0.5).0 + vec2(0.0, -4.0), egui::Align2::CENTER_BOTTOM, label, egui::FontId::proportional(10.0), col);
+            }
             // the surface: one flat-shaded quad per cell, far to near
             let light = {
                 let l = [-0.35f32, -0.45, 1.0];
@@ -372,7 +407,7 @@ impl ScfView {
                 let (p, _) = project(x, -1.0, -0.5);
                 let (q, _) = project(x, -1.1, -0.5);
                 painter.line_segment([p, q], Stroke::new(1.0, weak));
-                painter.text(project(x, -1.2, -0.5).0, egui::Align2::CENTER_CENTER, format!("{t:.0}"), font.clone(), text_colour);
+                painter.text(project(x, -1.2, -0.5).0, egui::Align2::CENTER_CENTER, tick_label(t), font.clone(), text_colour);
             }
             painter.text(project(0.0, -1.42, -0.5).0, egui::Align2::CENTER_CENTER, "α (Hz)", egui::FontId::proportional(13.0), text_colour);
             for t in nice_ticks(f0, f1, 5) {
@@ -380,14 +415,14 @@ impl ScfView {
                 let (p, _) = project(1.0, y, -0.5);
                 let (q, _) = project(1.1, y, -0.5);
                 painter.line_segment([p, q], Stroke::new(1.0, weak));
-                painter.text(project(1.22, y, -0.5).0, egui::Align2::CENTER_CENTER, format!("{t:.0}"), font.clone(), text_colour);
+                painter.text(project(1.22, y, -0.5).0, egui::Align2::CENTER_CENTER, tick_label(t), font.clone(), text_colour);
             }
             painter.text(project(1.45, 0.0, -0.5).0, egui::Align2::CENTER_CENTER, "f (Hz)", egui::FontId::proportional(13.0), text_colour);
             for t in nice_ticks(scale.lo, scale.hi, 4) {
                 let z = scale.t(t) as f32 - 0.5;
                 let (p, _) = project(-1.0, 1.0, z);
                 painter.line_segment([p, p + vec2(-5.0, 0.0)], Stroke::new(1.0, weak));
-                painter.text(p + vec2(-8.0, 0.0), egui::Align2::RIGHT_CENTER, if scale.db { format!("{t:.0}") } else { super::fmt_num(t) }, font.clone(), text_colour);
+                painter.text(p + vec2(-8.0, 0.0), egui::Align2::RIGHT_CENTER, tick_label(t), font.clone(), text_colour);
             }
             painter.text(project(-1.0, 1.0, 0.62).0, egui::Align2::CENTER_BOTTOM, if scale.db { "|S| (dB)" } else if self.quantity == ScfQuantity::Coherence { "|γ|" } else { "|S|" }, egui::FontId::proportional(13.0), text_colour);
             Self::colour_bar(ui, &scale, h);
@@ -450,7 +485,7 @@ impl ScfView {
         let lines = fault_alphas(r, a0, a1);
         ui.horizontal_top(|ui| {
             ui.allocate_ui(vec2((avail.x - 130.0).max(200.0), h), |ui| {
-                Plot::new("scf-map").height(h).legend(Legend::default()).x_axis_label("α (Hz)").y_axis_label("f (Hz)").show(ui, |pu| {
+                Plot::new("scf-map").height(h).show_grid(false).legend(Legend::default()).x_axis_label("α (Hz)").y_axis_label("f (Hz)").show(ui, |pu| {
                     pu.image(PlotImage::new("SCF", tex.id(), PlotPoint::new((a0 + a1) / 2.0, (f0 + f1) / 2.0), vec2((a1 - a0) as f32, (f1 - f0) as f32)));
                     for (label, a) in &lines {
                         pu.vline(VLine::new(label.clone(), *a).color(family_colour(label.split_whitespace().next().unwrap_or(""))).width(1.0));
