@@ -145,7 +145,7 @@ fn corrupt_file_shows_error_and_keeps_loaded_signal() {
     h.state_mut().execute(Command::OpenChain(bad_chain));
     h.run_steps(3);
     let err = labels_containing(&h, "Error:");
-    assert!(err.iter().any(|e| e.contains("bad_chain.toml") && e.contains("stage 1 `bandpass`") && e.contains("expected an array of length 2")), "errors shown: {err:?}");
+    assert!(err.iter().any(|e| e.contains("bad_chain.toml") && e.contains("stage 1 `bandpass`") && e.contains("`pass_band_hz`: ") && e.contains("expected an array of length 2")), "errors shown: {err:?}");
     assert_eq!(h.state().session.chain.stages.len(), stages, "the chain is kept");
 
     // and the app still works: the chain runs on the kept signal
