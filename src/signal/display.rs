@@ -89,6 +89,99 @@ pub fn min_max_decimate(samples: &[f64], fs_hz: f64, t0_s: f64, t1_s: f64, bucke
     out
 }
 
+/// Block minima and maxima of a record at several resolutions (blocks of 16, 256, 4096 and
+/// 65536 samples), built once, so that [`MinMaxPyramid::decimate`] costs O(display columns +
+/// blocks in view) instead of O(samples in view): a 10-minute 48 kHz record redraws in well
+/// under a millisecond however far it is zoomed out.
+///
+/// Memory: about one byte per sample (two `f64` per 16 samples, plus the coarser levels).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MinMaxPyramid {
+    /// `(samples per block, minima, maxima)`, finest first. A block of NaN only holds
+    /// `(+inf, -inf)`.
+    levels: Vec<(usize, Vec<f64>, Vec<f64>)>,
+    /// Length of the record it was built from.
+    n: usize,
+}
+
+impl MinMaxPyramid {
+    /// Samples per block of the finest level; each level is this many times coarser.
+    pub const FACTOR: usize = 16;
+
+    /// Builds the levels of `samples` (one pass over the record, then over each level).
+    pub fn new(samples: &[f64]) -> Self {
+        let mut levels: Vec<(usize, Vec<f64>, Vec<f64>)> = Vec::new();
+        let f = Self::FACTOR;
+        if samples.len() >= 2 * f {
+            let (mut lo, mut hi) = (Vec::with_capacity(samples.len() / f + 1), Vec::with_capacity(samples.len() / f + 1));
+            for c in samples.chunks(f) {
+                // f64::min/max ignore NaN: a block of NaN only stays (+inf, -inf).
+                let (a, b) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+                lo.push(a);
+                hi.push(b);
+            }
+            levels.push((f, lo, hi));
+            while let Some((block, lo, hi)) = levels.last() {
+                if lo.len() < 2 * f || levels.len() >= 4 {
+                    break;
+                }
+                let nlo: Vec<f64> = lo.chunks(f).map(|c| c.iter().copied().fold(f64::INFINITY, f64::min)).collect();
+                let nhi: Vec<f64> = hi.chunks(f).map(|c| c.iter().copied().fold(f64::NEG_INFINITY, f64::max)).collect();
+                let b = block * f;
+                levels.push((b, nlo, nhi));
+            }
+        }
+        Self { levels, n: samples.len() }
+    }
+
+    /// Whether the pyramid was built from a record of this length.
+    pub fn fits(&self, samples: &[f64]) -> bool {
+        self.n == samples.len()
+    }
+
+    /// Like [`min_max_decimate`] (same arguments and return), from the coarsest level with at
+    /// least 8 blocks per display column. The columns are then whole blocks: their
+    /// edges snap to the block grid, so a column may also cover up to one block before the
+    /// visible range and one after it; every sample in range is still in exactly one column,
+    /// so no peak is lost. Falls back to [`min_max_decimate`] when a column holds fewer than 8
+    /// finest blocks, or when `samples` is not the record the pyramid was built from.
+    pub fn decimate(&self, samples: &[f64], fs_hz: f64, t0_s: f64, t1_s: f64, buckets: usize) -> MinMaxTrace {
+        let n = samples.len();
+        if !self.fits(samples) || n == 0 || !(fs_hz.is_finite() && fs_hz > 0.0) {
+            return min_max_decimate(samples, fs_hz, t0_s, t1_s, buckets);
+        }
+        let (a, b) = if t0_s <= t1_s { (t0_s, t1_s) } else { (t1_s, t0_s) };
+        let start = if a.is_finite() { (a * fs_hz).floor().max(0.0) } else { 0.0 };
+        let end = if b.is_finite() { ((b * fs_hz).ceil() + 1.0).max(0.0) } else { n as f64 };
+        let (start, end) = ((start.min(n as f64)) as usize, (end.min(n as f64)) as usize);
+        if start >= end {
+            return MinMaxTrace::default();
+        }
+        let buckets = buckets.max(1);
+        let per = (end - start).div_ceil(buckets).max(1);
+        // At least 8 blocks per column, so snapping to whole blocks widens a column by < 12.5 %.
+        let Some((block, lo, hi)) = self.levels.iter().rev().find(|(block, _, _)| 8 * *block <= per) else {
+            return min_max_decimate(samples, fs_hz, t0_s, t1_s, buckets);
+        };
+        let per_blocks = per.div_ceil(*block);
+        let (first, last) = (start / block, end.div_ceil(*block).min(lo.len()));
+        let mut out = MinMaxTrace { samples_per_bucket: per_blocks * block, ..Default::default() };
+        let mut i = first;
+        while i < last {
+            let j = (i + per_blocks).min(last);
+            let mn = lo[i..j].iter().copied().fold(f64::INFINITY, f64::min);
+            let mx = hi[i..j].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            if mn.is_finite() && mx.is_finite() {
+                out.time_s.push((i * block) as f64 / fs_hz);
+                out.min.push(mn);
+                out.max.push(mx);
+            }
+            i = j;
+        }
+        out
+    }
+}
+
 /// How spectrum values are shown on the vertical axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
@@ -393,5 +486,35 @@ mod tests {
             assert!(l > last, "lightness falls at {i} %");
             last = l;
         }
+    }
+    /// The pyramid keeps every spike, matches the direct decimation when the columns fall on
+    /// its block grid, and falls back to it for short ranges.
+    #[test]
+    fn pyramid_keeps_spikes_and_matches_direct_decimation_on_its_grid() {
+        let n = 10_000_000;
+        let fs = 48_000.0;
+        let mut x: Vec<f64> = (0..n).map(|i| 0.01 * ((i as f64) * 0.37).sin()).collect();
+        x[7_654_321] = 5.0;
+        x[1_234_567] = -3.0;
+        x[99] = f64::NAN;
+        let p = MinMaxPyramid::new(&x);
+        let tr = p.decimate(&x, fs, 0.0, n as f64 / fs, 1000);
+        assert_eq!(tr.samples_per_bucket, 10_240, "10 000 per column rounded up to whole 256-sample blocks");
+        assert_eq!(tr.max.iter().copied().fold(f64::NEG_INFINITY, f64::max), 5.0);
+        assert_eq!(tr.min.iter().copied().fold(f64::INFINITY, f64::min), -3.0);
+        let k = tr.max.iter().position(|&v| v == 5.0).unwrap();
+        assert!(tr.time_s[k] <= 7_654_321.0 / fs && 7_654_321.0 / fs < tr.time_s[k] + 10_240.0 / fs);
+        // 4096 columns of 2048 samples from 0: exactly the direct result
+        let m = 4096 * 2048;
+        let direct = min_max_decimate(&x[..m], fs, 0.0, (m - 1) as f64 / fs, 4096);
+        let q = MinMaxPyramid::new(&x[..m]);
+        let fast = q.decimate(&x[..m], fs, 0.0, (m - 1) as f64 / fs, 4096);
+        assert_eq!(direct.samples_per_bucket, 2048);
+        assert_eq!(fast, direct);
+        // a short range: the direct path
+        assert_eq!(p.decimate(&x, fs, 1.0, 1.01, 1000), min_max_decimate(&x, fs, 1.0, 1.01, 1000));
+        // another record of another length: the direct path
+        assert_eq!(p.decimate(&x[..5000], fs, 0.0, 1.0, 10), min_max_decimate(&x[..5000], fs, 0.0, 1.0, 10));
+        assert!(MinMaxPyramid::new(&[]).decimate(&[], fs, 0.0, 1.0, 10).is_empty());
     }
 }
