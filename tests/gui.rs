@@ -399,3 +399,33 @@ fn session_round_trips() {
     assert!(err.iter().any(|e| e.contains("bad.twinscope.json") && e.contains("not a twinscope session")), "{err:?}");
     assert_eq!(g.state().session.signals.len(), 1);
 }
+
+/// Find missing effect reports its progress in model evaluations and stops on Cancel: the
+/// job ends as cancelled, no ranking or round is recorded, and the app goes on.
+#[test]
+fn model_loop_search_shows_progress_and_cancels() {
+    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], tab: Some("model".into()), ..Default::default() });
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    // the default (full) search: every missing effect, 1.5 s fits
+    h.get_by_label("Find missing effect").click();
+    h.run_steps(2);
+    wait_for(&mut h, "the first model evaluations", 120, |a| a.worker.jobs().first().and_then(|j| j.progress()).is_some_and(|p| p > 0.0));
+    let (p, step) = {
+        let j = &h.state().worker.jobs()[0];
+        (j.progress().unwrap(), j.step())
+    };
+    assert!(p > 0.0 && p < 0.5, "progress {p}");
+    assert!(step.starts_with("model evaluation ") && step.contains(" of "), "step `{step}`");
+    let shown = labels_containing(&h, "model evaluation ");
+    assert!(!shown.is_empty(), "the status bar shows the evaluation count");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    let t0 = Instant::now();
+    idle(&mut h, "the cancelled search", 120);
+    assert!(t0.elapsed() < Duration::from_secs(60), "cancel took {:?}", t0.elapsed());
+    let s = h.state();
+    assert!(s.session.model.result.is_none() && s.session.model.history.is_empty());
+    assert!(s.session.messages.iter().any(|m| m.text.ends_with(": cancelled")), "{:?}", s.session.messages.iter().map(|m| &m.text).collect::<Vec<_>>());
+    assert_eq!(s.session.signals.len(), 1, "nothing loaded is lost");
+}
