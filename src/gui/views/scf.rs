@@ -328,7 +328,7 @@ impl ScfView {
             // Fit the box with its axis labels into the rectangle, then apply the zoom.
             let mut lo = vec2(f32::INFINITY, f32::INFINITY);
             let mut hi = vec2(f32::NEG_INFINITY, f32::NEG_INFINITY);
-            for (x, y, z) in [(-1.0, -1.0, -0.5), (1.0, -1.0, -0.5), (1.0, 1.0, -0.5), (-1.0, 1.0, -0.5), (-1.0, -1.0, 0.5), (1.0, -1.0, 0.5), (1.0, 1.0, 0.5), (-1.0, 1.0, 0.5), (0.0, -1.45, -0.5), (1.5, 0.0, -0.5), (-1.0, 1.0, 0.7)] {
+            for (x, y, z) in [(-1.0, -1.0, -0.5), (1.0, -1.0, -0.5), (1.0, 1.0, -0.5), (-1.0, 1.0, -0.5), (-1.0, -1.0, 0.5), (1.0, -1.0, 0.5), (1.0, 1.0, 0.5), (-1.0, 1.0, 0.5), (0.0, -1.6, -0.5), (1.5, 0.0, -0.5), (-1.0, 1.0, 0.7)] {
                 let (q, _) = unit(x, y, z);
                 lo = lo.min(q);
                 hi = hi.max(q);
@@ -357,13 +357,7 @@ impl ScfView {
                 painter.line_segment([project(a.0, a.1, -0.5).0, project(b.0, b.1, -0.5).0], Stroke::new(1.0, weak));
             }
             painter.line_segment([project(-1.0, 1.0, -0.5).0, project(-1.0, 1.0, 0.5).0], Stroke::new(1.0, weak));
-            // the shaft and fault cyclic frequencies on the floor, labelled at the α axis
-            for (label, a) in fault_alphas(r, a0, a1) {
-                let x = -1.0 + 2.0 * ((a - a0) / (a1 - a0).max(1e-12)) as f32;
-                let col = family_colour(&label);
-                painter.line_segment([project(x, -1.0, -0.5).0, project(x, 1.0, -0.5).0], Stroke::new(1.0, col.gamma_multiply(0.8)));
-                painter.text(project(x, -1.0, -0.5).0 + vec2(0.0, -4.0), egui::Align2::CENTER_BOTTOM, label, egui::FontId::proportional(10.0), col);
-            }
+
             // the surface: one flat-shaded quad per cell, far to near
             let light = {
                 let l = [-0.35f32, -0.45, 1.0];
@@ -401,15 +395,22 @@ impl ScfView {
                 mesh.add_triangle(base_idx, base_idx + 2, base_idx + 3);
             }
             painter.add(egui::Shape::mesh(mesh));
+            // the shaft and fault cyclic frequencies: coloured marks just outside the α edge
+            for (label, a) in fault_alphas(r, a0, a1) {
+                let x = -1.0 + 2.0 * ((a - a0) / (a1 - a0).max(1e-12)) as f32;
+                let col = family_colour(&label);
+                painter.line_segment([project(x, -1.0, -0.5).0, project(x, -1.07, -0.5).0], Stroke::new(2.0, col));
+                painter.text(project(x, -1.1, -0.5).0, egui::Align2::CENTER_TOP, label, egui::FontId::proportional(9.0), col);
+            }
             // axes: α along the f = −1 edge, f along the α = +1 edge, value up the back corner
             for t in nice_ticks(a0, a1, 5) {
                 let x = -1.0 + 2.0 * ((t - a0) / (a1 - a0).max(1e-12)) as f32;
                 let (p, _) = project(x, -1.0, -0.5);
-                let (q, _) = project(x, -1.1, -0.5);
+                let (q, _) = project(x, -1.2, -0.5);
                 painter.line_segment([p, q], Stroke::new(1.0, weak));
-                painter.text(project(x, -1.2, -0.5).0, egui::Align2::CENTER_CENTER, tick_label(t), font.clone(), text_colour);
+                painter.text(project(x, -1.32, -0.5).0, egui::Align2::CENTER_CENTER, tick_label(t), font.clone(), text_colour);
             }
-            painter.text(project(0.0, -1.42, -0.5).0, egui::Align2::CENTER_CENTER, "α (Hz)", egui::FontId::proportional(13.0), text_colour);
+            painter.text(project(0.0, -1.55, -0.5).0, egui::Align2::CENTER_CENTER, "α (Hz)", egui::FontId::proportional(13.0), text_colour);
             for t in nice_ticks(f0, f1, 5) {
                 let y = -1.0 + 2.0 * ((t - f0) / (f1 - f0).max(1e-12)) as f32;
                 let (p, _) = project(1.0, y, -0.5);
