@@ -26,6 +26,8 @@ pub struct StartOptions {
     /// Once the start work is done, run "Find missing effect" once (against the first measured
     /// signal, with the settings' search options): for screenshots and demonstrations.
     pub find_missing_effect: bool,
+    /// Once the start work (and the search, if asked) is done, save the window as PNG here.
+    pub export_png: Option<PathBuf>,
     /// Where settings are read from and written to; `None` = defaults, not persisted (tests).
     pub settings_path: Option<PathBuf>,
 }
@@ -48,6 +50,8 @@ pub struct Workbench {
     pending_loop: bool,
     /// A PNG export waiting for the next frame's context.
     pending_png: Option<PathBuf>,
+    /// A PNG export to do once the start work is done.
+    start_png: Option<PathBuf>,
     /// Results of PNG exports, written from the screenshot callback.
     png_tx: Sender<Result<String, String>>,
     png_rx: Receiver<Result<String, String>>,
@@ -107,6 +111,7 @@ impl Workbench {
             settings_path: opts.settings_path.clone(),
             pending_loop: opts.find_missing_effect,
             pending_png: None,
+            start_png: opts.export_png.clone(),
             start: Some(opts),
             png_tx,
             png_rx,
@@ -639,6 +644,11 @@ impl Workbench {
             match self.session.measured_indices().first() {
                 Some(&m) => self.execute(Command::FindMissingEffect { measured: m }),
                 None => self.session.tell(Level::Error, "find missing effect at start: no measured signal loaded"),
+            }
+        }
+        if self.start_png.is_some() && !self.pending_loop && self.start.is_none() && !self.worker.busy() {
+            if let Some(p) = self.start_png.take() {
+                self.execute(Command::ExportPng(p));
             }
         }
         let dropped: Vec<PathBuf> = ui.ctx().input(|i| i.raw.dropped_files.iter().map(|f| f.path().to_path_buf()).filter(|p| !p.as_os_str().is_empty()).collect());
