@@ -197,6 +197,13 @@ impl ModelLoopView {
     fn ranking_ui(measured: Option<usize>, ui: &mut egui::Ui, session: &Session, cmd: &mut Option<Command>) {
         let Some(r) = &session.model.result else {
             ui.weak("Find missing effect calibrates the model against the measured signal, then tries each missing effect with its parameters fitted, and ranks them.");
+            if let Some(saved) = session.restored_summary.as_ref().filter(|x| x.verdict.is_some()) {
+                ui.add_space(6.0);
+                ui.strong("Saved ranking (from the reopened session; not recomputed)");
+                for line in saved.verdict.iter().map(|v| format!("Verdict: {v}")).chain(saved.trials.iter().cloned()) {
+                    ui.add(egui::Label::new(drawable(&line)).wrap());
+                }
+            }
             return;
         };
         let d = &r.diagnosis;

@@ -162,17 +162,7 @@ impl ScfView {
     /// The map pooled to `rows × cols` over the shown α range, in display units (dB when
     /// chosen), cached until something changes.
     fn grid(&self, r: &ScfResult, rows: usize, cols: usize) -> (GridKey, DisplayGrid) {
-        let key = GridKey {
-            signal: r.signal_name.clone(),
-            seconds_bits: r.seconds.to_bits(),
-            n_alpha: r.map.n_alpha(),
-            quantity: self.quantity,
-            db: self.uses_db(),
-            alpha_lo_bits: self.alpha_lo_hz.to_bits(),
-            alpha_hi_bits: self.alpha_hi_hz.to_bits(),
-            rows,
-            cols,
-        };
+        let key = self.grid_key_only(r, rows, cols);
         let values = match self.quantity {
             ScfQuantity::Magnitude => r.map.magnitude(),
             ScfQuantity::Coherence => r.map.coherence.clone(),
