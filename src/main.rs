@@ -23,6 +23,23 @@ struct Cli {
     /// No progress output on stderr.
     #[arg(long, short, global = true)]
     quiet: bool,
+    /// Desktop workbench: the view to show first (spectra, time, filter, compare, scf, model).
+    #[arg(long, value_name = "VIEW")]
+    view: Option<String>,
+    /// Desktop workbench: open these signal files at start (repeatable).
+    #[arg(long = "open", value_name = "FILE")]
+    open: Vec<PathBuf>,
+    /// Desktop workbench: start without the bundled demo.
+    #[arg(long)]
+    no_demo: bool,
+    /// Desktop workbench: once the demo (or the opened files) is loaded, run "Find missing
+    /// effect" against the first measured signal with the saved search settings.
+    #[arg(long)]
+    find_missing_effect: bool,
+    /// Desktop workbench: once the start work is done, save the window as PNG to this path
+    /// (the Export → View as PNG path; the window stays open).
+    #[arg(long, value_name = "FILE.png")]
+    export_png: Option<PathBuf>,
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -195,11 +212,21 @@ fn run(cli: Cli) -> Result<()> {
         Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, controls, duration_s, seed, json }) => confusion_cmd(&preset, &effects, controls, duration_s, seed, json.as_deref()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
-        None => {
-            eprintln!("twinscope: nothing to do. Try `twinscope --batch sample_data/demo_envelope.toml` or `twinscope --help`.");
-            Ok(())
-        }
+        None => open_workbench(cli.view, cli.open, !cli.no_demo, cli.find_missing_effect, cli.export_png),
     }
+}
+
+/// `twinscope` with no command opens the desktop workbench (on the bundled demo by default).
+#[cfg(feature = "gui")]
+fn open_workbench(view: Option<String>, files: Vec<PathBuf>, demo: bool, find_missing_effect: bool, export_png: Option<PathBuf>) -> Result<()> {
+    let opts = twinscope::gui::StartOptions { demo, files, tab: view, find_missing_effect, export_png, settings_path: twinscope::gui::settings::Settings::default_path() };
+    twinscope::gui::run(opts).map_err(|e| anyhow::anyhow!("cannot open the desktop workbench: {e} (a display is needed; for headless work use --batch or a subcommand, see --help)"))
+}
+
+#[cfg(not(feature = "gui"))]
+fn open_workbench(_view: Option<String>, _files: Vec<PathBuf>, _demo: bool, _find_missing_effect: bool, _export_png: Option<PathBuf>) -> Result<()> {
+    eprintln!("twinscope: built without the desktop workbench (feature `gui`). Try `twinscope --batch sample_data/demo_envelope.toml` or `twinscope --help`.");
+    Ok(())
 }
 
 struct CliProgress {

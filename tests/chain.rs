@@ -33,6 +33,13 @@ fn bad_chains_name_the_stage_and_parameter() {
     assert!(e.contains("fault"), "{e}");
     let e = err_of("name = 3\n[[stage]]\nkind = \"welch\"\n");
     assert!(e.contains("name"), "{e}");
+    // a parameter of the wrong type is named, with the stage
+    let e = err_of("[[stage]]\nkind = \"bandpass\"\npass_band_hz = \"wide\"\n");
+    assert!(e.contains("stage 1 `bandpass`") && e.contains("`pass_band_hz`: ") && e.contains("expected an array of length 2"), "{e}");
+    let e = err_of("[[stage]]\nkind = \"normalise\"\n[[stage]]\nkind = \"welch\"\nnperseg = 4096\nnoverlap = \"half\"\n");
+    assert!(e.contains("stage 2 `welch`") && e.contains("`noverlap`: "), "{e}");
+    let e = err_of("[[stage]]\nkind = \"scf\"\nalpha_max_hz = [1, 2]\nnperseg = 256\n");
+    assert!(e.contains("`alpha_max_hz`: ") && !e.contains("`nperseg`"), "{e}");
     let e = err_of("[[stage]]\nmethod = \"peak\"\n");
     assert!(e.contains("kind"), "{e}");
     assert!(preset("nope").unwrap_err().to_string().contains("envelope"));

@@ -182,6 +182,22 @@ fn lookup<'a>(raw: &'a Data, stages: &'a [StageOutput], reference: &str) -> Opti
 }
 
 
+/// The key of a stage table whose value alone (with the stage's `kind`) gives the error
+/// `message`: deserialising from a `toml::Value` keeps no spans, so the error would not say which
+/// parameter is wrong. `None` when no single key reproduces it (e.g. a combination of values).
+fn culprit_key(t: &toml::Table, message: &str) -> Option<String> {
+    let kind = t.get("kind")?;
+    t.iter()
+        .filter(|(k, _)| k.as_str() != "kind")
+        .find(|(k, v)| {
+            let mut one = toml::Table::new();
+            one.insert("kind".into(), kind.clone());
+            one.insert((*k).clone(), (*v).clone());
+            matches!(toml::Value::Table(one).try_into::<Op>(), Err(e) if e.message().trim() == message)
+        })
+        .map(|(k, _)| k.clone())
+}
+
 impl Chain {
     /// Parses a chain from TOML text; `source_name` names it in errors (a file path or preset).
     pub fn from_toml(text: &str, source_name: &str) -> Result<Chain, ChainError> {
@@ -251,7 +267,13 @@ impl Chain {
                     None
                 }
             };
-            let op: Op = toml::Value::Table(t).try_into().map_err(|e: toml::de::Error| at(e.message().trim().to_string()))?;
+            let op: Op = toml::Value::Table(t.clone()).try_into().map_err(|e: toml::de::Error| {
+                let m = e.message().trim().to_string();
+                at(match culprit_key(&t, &m) {
+                    Some(k) if !m.contains(&format!("`{k}`")) => format!("`{k}`: {m}"),
+                    _ => m,
+                })
+            })?;
             stages.push(Stage { name: sname, input, fault, band_hz, op });
         }
         let chain = Chain { name, description, stages };

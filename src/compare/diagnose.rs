@@ -376,6 +376,24 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict }))
 }
 
+/// Applies a trial to `m` the way the loop does: switches the effect on, sets every fitted
+/// parameter (the main one, the extra ones and the re-fitted noise level) to its trial value,
+/// and, for `path_modulation`, sets the modulation rate to the shaft speed as the trial did.
+/// `m` should be the calibrated machine the trial was run on (the first value [`diagnose`]
+/// returns).
+pub fn apply_trial(m: &mut Machine, t: &EffectTrial) {
+    m.effects.enable(t.effect);
+    for (p, v) in t.parameter.iter().chain(t.extra_parameters.iter()) {
+        p.set(m, *v);
+    }
+    if t.effect == EffectKind::PathModulation {
+        let (_, shaft) = machine_families(m);
+        if let (Some(pm), Some(fr)) = (m.effects.path_modulation.as_mut(), shaft) {
+            pm.frequency_hz = fr;
+        }
+    }
+}
+
 /// One round of the loop.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Round {
@@ -410,17 +428,9 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
         let mut next = cal.clone();
         let applied = d.best;
         if let Some(k) = applied {
-            next.effects.enable(k);
-            if let Some(t) = d.trials.iter().find(|t| t.effect == k) {
-                for (p, v) in t.parameter.iter().chain(t.extra_parameters.iter()) {
-                    p.set(&mut next, *v);
-                }
-            }
-            if k == EffectKind::PathModulation {
-                let (_, shaft) = machine_families(&next);
-                if let (Some(pm), Some(fr)) = (next.effects.path_modulation.as_mut(), shaft) {
-                    pm.frequency_hz = fr;
-                }
+            match d.trials.iter().find(|t| t.effect == k) {
+                Some(t) => apply_trial(&mut next, t),
+                None => next.effects.enable(k),
             }
         }
         history.push(Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, verdict: d.verdict.clone(), applied });
@@ -507,5 +517,31 @@ mod tests {
         let (_, best, v) = decide(vec![], 24.0, 4.0, 0.01, &o);
         assert_eq!(best, None);
         assert!(v.starts_with("nothing significant"), "{v}");
+    }
+
+    fn fitted(effect: EffectKind, parameter: Option<(Param, f64)>, extra: Vec<(Param, f64)>) -> EffectTrial {
+        EffectTrial { parameter, extra_parameters: extra, ..trial(effect, 10.0, 2.0, 5.0, 0.0) }
+    }
+
+    #[test]
+    fn apply_trial_switches_the_effect_on_and_sets_every_fitted_parameter() {
+        let mut m = crate::model::preset("cwru_6205_inner").unwrap();
+        assert!(!m.effects.is_on(EffectKind::LoadZone));
+        let t = fitted(EffectKind::LoadZone, Some((Param::RadialLoadN, 345.0)), vec![(Param::RadialClearanceM, -3e-6)]);
+        apply_trial(&mut m, &t);
+        assert!(m.effects.is_on(EffectKind::LoadZone));
+        assert_eq!(Param::RadialLoadN.get(&m), Some(345.0));
+        assert_eq!(Param::RadialClearanceM.get(&m), Some(-3e-6));
+        m.validate().unwrap();
+    }
+
+    #[test]
+    fn apply_trial_sets_path_modulation_to_the_shaft_rate() {
+        let mut m = crate::model::preset("cwru_6205_inner").unwrap();
+        let t = fitted(EffectKind::PathModulation, Some((Param::PathModulationDepth, 0.4)), Vec::new());
+        apply_trial(&mut m, &t);
+        let pm = m.effects.path_modulation.as_ref().unwrap();
+        assert_eq!(pm.depth, 0.4);
+        assert!((pm.frequency_hz - 29.95).abs() < 1e-9, "rate {} Hz", pm.frequency_hz);
     }
 }

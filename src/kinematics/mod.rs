@@ -8,10 +8,12 @@
 mod bearing;
 mod catalogue;
 mod gear;
+pub mod markers;
 
 pub use bearing::{BearingGeometry, FaultFrequencies, KinematicsError};
 pub use catalogue::{catalogue, lookup_bearing};
 pub use gear::{GearPair, MeshFrequencies};
+pub use markers::{labelled_peaks, marker_lines, LabelledPeak, MarkerLine, PeakLabelling};
 
 use serde::{Deserialize, Serialize};
 

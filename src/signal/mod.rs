@@ -3,6 +3,8 @@
 //! A [`Signal`] is a uniformly sampled real record with its sampling rate, name, physical unit
 //! and the machine metadata known for it. [`io`] reads and writes it.
 
+pub mod display;
+pub mod export;
 pub mod io;
 pub mod synth;
 

@@ -1,0 +1,122 @@
+//! Persisted preferences (a small TOML file), kept apart from the runtime
+//! [`Session`](super::session::Session): what the analyst chose last time, not what is loaded.
+
+use crate::compare::{CompareOptions, LoopOptions};
+use crate::kinematics::PeakLabelling;
+use crate::model::EffectKind;
+use crate::signal::display::AmplitudeScale;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The workbench's preferences.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Settings {
+    /// Chain preset loaded at start when there is no demo.
+    pub chain_preset: String,
+    /// Machine preset offered for simulation.
+    pub machine_preset: String,
+    /// Vertical scale of the spectra.
+    pub spectrum_scale: AmplitudeScale,
+    /// Draw characteristic-frequency markers.
+    pub show_markers: bool,
+    /// Draw the ± shaft sidebands of the markers.
+    pub show_sidebands: bool,
+    /// Harmonics drawn per family.
+    pub marker_harmonics: u32,
+    /// Peaks listed in the peak table.
+    pub peak_count: usize,
+    /// Label tolerance, % of the line frequency.
+    pub label_tolerance_percent: f64,
+    /// Files opened recently, newest first.
+    pub recent_files: Vec<PathBuf>,
+    /// Directory of the last file dialog.
+    pub last_dir: Option<PathBuf>,
+    /// Model loop: simulated (and compared) duration of each model evaluation, s.
+    pub loop_fit_duration_s: f64,
+    /// Model loop: golden-section evaluations per parameter and sweep.
+    pub loop_evaluations_per_parameter: usize,
+    /// Model loop: coordinate-descent sweeps of the calibration.
+    pub loop_sweeps: usize,
+    /// Model loop: the effects the search may try; empty = every applicable effect the model lacks.
+    pub loop_candidates: Vec<EffectKind>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            chain_preset: "envelope_cwru".into(),
+            machine_preset: "cwru_6205_inner".into(),
+            spectrum_scale: AmplitudeScale::Linear,
+            show_markers: true,
+            show_sidebands: true,
+            marker_harmonics: 5,
+            peak_count: 10,
+            label_tolerance_percent: 1.0,
+            recent_files: Vec::new(),
+            last_dir: None,
+            loop_fit_duration_s: LoopOptions::default().fit_duration_s,
+            loop_evaluations_per_parameter: LoopOptions::default().evaluations_per_parameter,
+            loop_sweeps: LoopOptions::default().sweeps,
+            loop_candidates: Vec::new(),
+        }
+    }
+}
+
+impl Settings {
+    /// The default settings file: `$XDG_CONFIG_HOME/twinscope/settings.toml`, else
+    /// `$HOME/.config/twinscope/settings.toml`.
+    pub fn default_path() -> Option<PathBuf> {
+        let base = std::env::var_os("XDG_CONFIG_HOME").map(PathBuf::from).or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".config")))?;
+        Some(base.join("twinscope").join("settings.toml"))
+    }
+
+    /// Reads the settings; a missing file gives the defaults, a broken one the defaults and
+    /// a message naming the file.
+    pub fn load(path: &Path) -> (Settings, Option<String>) {
+        match std::fs::read_to_string(path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => (Settings::default(), None),
+            Err(e) => (Settings::default(), Some(format!("{}: cannot read settings ({e}); using defaults", path.display()))),
+            Ok(text) => match toml::from_str(&text) {
+                Ok(s) => (s, None),
+                Err(e) => (Settings::default(), Some(format!("{}: bad settings ({}); using defaults", path.display(), e.message()))),
+            },
+        }
+    }
+
+    /// Writes the settings, creating the directory.
+    pub fn save(&self, path: &Path) -> Result<(), String> {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        }
+        let text = toml::to_string(self).map_err(|e| e.to_string())?;
+        std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Remembers a file as recently opened (newest first, at most 10).
+    pub fn remember(&mut self, path: &Path) {
+        self.recent_files.retain(|p| p != path);
+        self.recent_files.insert(0, path.to_path_buf());
+        self.recent_files.truncate(10);
+        if let Some(d) = path.parent() {
+            self.last_dir = Some(d.to_path_buf());
+        }
+    }
+
+    /// The loop options from these settings, comparing with `compare` (the chain's band).
+    pub fn loop_options(&self, compare: CompareOptions) -> LoopOptions {
+        LoopOptions {
+            compare,
+            fit_duration_s: self.loop_fit_duration_s,
+            evaluations_per_parameter: self.loop_evaluations_per_parameter,
+            sweeps: self.loop_sweeps,
+            candidates: self.loop_candidates.clone(),
+            ..Default::default()
+        }
+    }
+
+    /// The peak-labelling settings (batch defaults, with the table size and tolerance).
+    pub fn labelling(&self) -> PeakLabelling {
+        PeakLabelling { peaks: self.peak_count.max(1), tolerance_percent: self.label_tolerance_percent, ..Default::default() }
+    }
+}

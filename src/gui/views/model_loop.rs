@@ -1,0 +1,374 @@
+//! The model loop: the machine (preset and main parameters, validated by
+//! `Machine::validate`), the catalogue of effects as toggles with their main parameters,
+//! Simulate, "Find missing effect" (`compare::diagnose` on a worker, progress counted in model
+//! evaluations, Cancel), the ranked trials with their evidence and before → after numbers, Add
+//! (`compare::apply_trial`, then re-simulate and re-compare), and the error over rounds.
+
+use super::{drawable, fmt_num, unit_of, Command, View};
+use crate::compare::Param;
+use crate::gui::session::Session;
+use crate::gui::settings::Settings;
+use crate::model::{EffectKind, Effects, Machine, PRESETS};
+use crate::signal::export::{PlotData, Series};
+use egui::{Color32, RichText};
+use egui_plot::{Legend, Line, Plot, PlotPoints, Points};
+
+/// The model-loop view.
+#[derive(Default)]
+pub struct ModelLoopView {
+    /// The machine as edited, with the model revision it was taken from.
+    draft: Option<(u64, Machine)>,
+    /// The measured signal to compare with (index into the session's signals).
+    measured: Option<usize>,
+}
+
+/// Colours of the two curves of the rounds chart.
+const ENVELOPE: Color32 = Color32::from_rgb(60, 120, 220);
+const OBJECTIVE: Color32 = Color32::from_rgb(230, 120, 40);
+
+/// A number editor for a model parameter: SI value, `unit` shown after it, `range` the values
+/// the editor accepts (validation against the machine comes after).
+fn number(ui: &mut egui::Ui, v: &mut f64, range: std::ops::RangeInclusive<f64>, unit: &str) -> egui::Response {
+    let speed = (v.abs() * 0.005).max(1e-9);
+    let sci = v.abs() < 1e-2 || v.abs() >= 1e5;
+    let mut d = egui::DragValue::new(v).range(range).clamp_existing_to_range(false).speed(speed);
+    if sci {
+        d = d.custom_formatter(|x, _| format!("{x:.4e}"));
+    }
+    if !unit.is_empty() {
+        d = d.suffix(format!(" {unit}"));
+    }
+    ui.add(d)
+}
+
+impl ModelLoopView {
+    /// Index of the measured signal to use: the chosen one, else the selected signal if it is
+    /// measured, else the first measured.
+    fn measured(&mut self, session: &Session) -> Option<usize> {
+        let list = session.measured_indices();
+        if self.measured.is_none_or(|i| !list.contains(&i)) {
+            self.measured = session.selected.filter(|i| list.contains(i)).or(list.first().copied());
+        }
+        self.measured
+    }
+
+    fn machine_ui(ui: &mut egui::Ui, d: &mut Machine) -> bool {
+        let mut changed = false;
+        egui::Grid::new("machine-params").num_columns(3).striped(true).show(ui, |ui| {
+            if let Some(s) = d.shafts.iter_mut().find(|s| s.speed_hz.is_some()) {
+                let name = s.name.clone();
+                let mut v = s.speed_hz.unwrap_or(0.0);
+                let l = ui.label("shaft speed").on_hover_text(format!("shaft[{name}].speed_hz (other shafts follow through their ratios)"));
+                changed |= number(ui, &mut v, 0.01..=2000.0, "Hz").labelled_by(l.id).changed();
+                ui.weak(format!("{:.0} rpm", v * 60.0));
+                s.speed_hz = Some(v);
+                ui.end_row();
+            }
+            for (label, p, range, note) in [
+                ("resonance", Param::ResonanceHz, 1.0..=1.0e6, "structural resonance the impacts ring"),
+                ("resonance damping ratio", Param::ResonanceDamping, 0.0..=1.0, "ζ of the resonance"),
+                ("fault depth", Param::FaultDepthM, 1e-7..=1e-2, "depth of the localised spall"),
+            ] {
+                let Some(mut v) = p.get(d) else { continue };
+                let l = ui.label(label).on_hover_text(format!("{} — {note}", p.name()));
+                if number(ui, &mut v, range, unit_of(p.name())).labelled_by(l.id).changed() {
+                    p.set(d, v);
+                    changed = true;
+                }
+                ui.weak(if p == Param::FaultDepthM { format!("{:.3} mm", v * 1e3) } else { String::new() });
+                ui.end_row();
+            }
+            let l = ui.label("simulated duration").on_hover_text("duration_s: length of Simulate's record (the search uses its own fit duration)");
+            changed |= number(ui, &mut d.duration_s, 0.05..=600.0, "s").labelled_by(l.id).changed();
+            ui.weak(format!("fs {:.0} Hz", d.fs_hz));
+            ui.end_row();
+        });
+        changed
+    }
+
+    fn effects_ui(ui: &mut egui::Ui, d: &mut Machine) -> bool {
+        let mut changed = false;
+        egui::Grid::new("effects").num_columns(2).striped(true).show(ui, |ui| {
+            for k in EffectKind::ALL {
+                let applicable = Effects::applicable(k, d);
+                let mut on = d.effects.is_on(k);
+                let r = ui.add_enabled(applicable, egui::Checkbox::new(&mut on, k.name()));
+                let r = if applicable { r } else { r.on_disabled_hover_text("does not apply to this machine (e.g. gear effects need a gear pair)") };
+                if r.changed() {
+                    if on {
+                        d.effects.enable(k);
+                    } else {
+                        d.effects.disable(k);
+                    }
+                    changed = true;
+                }
+                match Param::main_of_effect(k).filter(|_| on) {
+                    Some(p) => match p.get(d) {
+                        Some(mut v) => {
+                            let (lo, hi, _) = p.bounds(d);
+                            let range = lo.min(v)..=hi.max(v);
+                            let r = number(ui, &mut v, range, unit_of(p.name())).on_hover_text(format!("{} (search range {} – {})", p.name(), fmt_num(lo), fmt_num(hi)));
+                            if r.changed() {
+                                p.set(d, v);
+                                changed = true;
+                            }
+                        }
+                        None => {
+                            ui.weak("-");
+                        }
+                    },
+                    None => {
+                        ui.weak(if on { "switch" } else { "" });
+                    }
+                }
+                ui.end_row();
+            }
+        });
+        changed
+    }
+
+    fn search_settings_ui(ui: &mut egui::Ui, settings: &Settings, machine: &Machine) -> Option<Settings> {
+        let mut s = settings.clone();
+        egui::CollapsingHeader::new("Search settings").default_open(false).show(ui, |ui| {
+            egui::Grid::new("search-settings").num_columns(2).show(ui, |ui| {
+                ui.label("fit duration").on_hover_text("simulated and compared duration of each model evaluation");
+                ui.add(egui::DragValue::new(&mut s.loop_fit_duration_s).range(0.2..=20.0).speed(0.05).suffix(" s"));
+                ui.end_row();
+                ui.label("evaluations per parameter").on_hover_text("golden-section evaluations per parameter and sweep");
+                ui.add(egui::DragValue::new(&mut s.loop_evaluations_per_parameter).range(3..=40));
+                ui.end_row();
+                ui.label("calibration sweeps");
+                ui.add(egui::DragValue::new(&mut s.loop_sweeps).range(0..=5));
+                ui.end_row();
+            });
+            let mut all = s.loop_candidates.is_empty();
+            if ui.checkbox(&mut all, "try every applicable effect the model lacks").changed() {
+                s.loop_candidates = if all { Vec::new() } else { EffectKind::ALL.into_iter().filter(|k| !machine.effects.is_on(*k) && Effects::applicable(*k, machine)).collect() };
+            }
+            if !all {
+                ui.horizontal_wrapped(|ui| {
+                    for k in EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, machine)) {
+                        let mut on = s.loop_candidates.contains(&k);
+                        if ui.checkbox(&mut on, format!("try {}", k.name())).changed() {
+                            if on {
+                                s.loop_candidates.push(k);
+                            } else {
+                                s.loop_candidates.retain(|x| *x != k);
+                            }
+                        }
+                    }
+                });
+            }
+        });
+        (s != *settings).then_some(s)
+    }
+
+    fn rounds_ui(ui: &mut egui::Ui, session: &Session) {
+        let h = &session.model.history;
+        ui.strong("Error over rounds");
+        if h.is_empty() {
+            ui.weak("No rounds yet: Find missing effect starts round 1.");
+            return;
+        }
+        let env: Vec<[f64; 2]> = h.iter().map(|r| [r.round as f64, r.envelope_nrmse]).collect();
+        let obj: Vec<[f64; 2]> = h.iter().map(|r| [r.round as f64, r.objective]).collect();
+        Plot::new("rounds-chart").height(170.0).legend(Legend::default()).x_axis_label("round").y_axis_label("NRMSE (%)").include_y(0.0).include_x(0.5).include_x(h.len() as f64 + 0.5).show(ui, |pu| {
+            pu.line(Line::new("envelope NRMSE (%)", PlotPoints::from(env.clone())).color(ENVELOPE).width(1.5));
+            pu.points(Points::new("envelope NRMSE (%)", PlotPoints::from(env)).color(ENVELOPE).radius(4.0));
+            pu.line(Line::new("objective (weighted NRMSE, %)", PlotPoints::from(obj.clone())).color(OBJECTIVE).width(1.5));
+            pu.points(Points::new("objective (weighted NRMSE, %)", PlotPoints::from(obj)).color(OBJECTIVE).radius(4.0));
+        });
+        egui::Grid::new("rounds-table").striped(true).num_columns(5).show(ui, |ui| {
+            for hdr in ["round", "envelope NRMSE", "objective", "effects on", "then added"] {
+                ui.weak(hdr);
+            }
+            ui.end_row();
+            for r in h {
+                ui.label(format!("round {}", r.round)).on_hover_text(drawable(&r.verdict));
+                ui.label(format!("{:.1} %", r.envelope_nrmse));
+                ui.label(format!("{:.1}", r.objective));
+                ui.label(r.effects_on.iter().map(|k| k.name()).collect::<Vec<_>>().join(", "));
+                ui.label(r.applied.map(|k| k.name()).unwrap_or("-"));
+                ui.end_row();
+            }
+        });
+    }
+
+    fn ranking_ui(measured: Option<usize>, ui: &mut egui::Ui, session: &Session, cmd: &mut Option<Command>) {
+        let Some(r) = &session.model.result else {
+            ui.weak("Find missing effect calibrates the model against the measured signal, then tries each missing effect with its parameters fitted, and ranks them.");
+            if let Some(saved) = session.restored_summary.as_ref().filter(|x| x.verdict.is_some()) {
+                ui.add_space(6.0);
+                ui.strong("Saved ranking (from the reopened session; not recomputed)");
+                for line in saved.verdict.iter().map(|v| format!("Verdict: {v}")).chain(saved.trials.iter().cloned()) {
+                    ui.add(egui::Label::new(drawable(&line)).wrap());
+                }
+            }
+            return;
+        };
+        let d = &r.diagnosis;
+        ui.strong(format!("Missing-effect ranking against {}", r.measured));
+        ui.weak(format!(
+            "{} trials · fit {:.2} s per evaluation · {:.1} s · floor (the model against itself) objective {:.1}",
+            d.trials.len(),
+            r.options.fit_duration_s,
+            r.seconds,
+            d.floor_objective
+        ));
+        let verdict = RichText::new(format!("Verdict: {}", drawable(&d.verdict)));
+        ui.add(egui::Label::new(if d.best.is_some() { verdict.strong() } else { verdict }).wrap());
+        let cal = &d.calibration;
+        ui.horizontal_wrapped(|ui| {
+            ui.label(format!(
+                "calibration ({} evaluations): envelope NRMSE {:.1} -> {:.1} %, objective {:.1} -> {:.1}",
+                cal.evaluations, cal.envelope_nrmse_before, cal.envelope_nrmse_after, cal.objective_before, cal.objective_after
+            ))
+            .on_hover_text(cal.parameters.iter().map(|(p, v)| format!("{} = {}", p.name(), fmt_num(*v))).collect::<Vec<_>>().join("\n"));
+            if ui.add_enabled(session.model.machine != r.calibrated, egui::Button::new("Use calibrated model")).on_hover_text("take the calibrated parameters into the machine without adding an effect").clicked() {
+                *cmd = Some(Command::UseCalibrated);
+            }
+        });
+        let current = session.model.machine == r.started_from;
+        egui::ScrollArea::both().id_salt("ranking-scroll").show(ui, |ui| {
+            egui::Grid::new("ranking").striped(true).num_columns(5).show(ui, |ui| {
+                for hdr in ["effect", "objective", "envelope NRMSE", "reduction", ""] {
+                    ui.weak(hdr);
+                }
+                ui.end_row();
+                for (i, t) in d.trials.iter().enumerate() {
+                    let name = format!("{}. {}", i + 1, t.effect.name());
+                    let name = if d.best == Some(t.effect) { RichText::new(name).strong() } else { RichText::new(name) };
+                    ui.label(name).on_hover_text(drawable(&t.summary));
+                    ui.label(format!("{:.1} -> {:.1}", t.objective_before, t.objective_after));
+                    ui.label(format!("{:.1} -> {:.1} %", t.envelope_nrmse_before, t.envelope_nrmse_after));
+                    ui.label(format!("{:.0} %", t.reduction * 100.0)).on_hover_text(format!("relative objective reduction; explains {:.0} % of the error above the floor", t.explained * 100.0));
+                    let added = r.added.contains(&t.effect);
+                    let why = if added {
+                        "added"
+                    } else if !r.added.is_empty() {
+                        "another effect was added: run Find missing effect again for the new model"
+                    } else if !current {
+                        "the model changed since this search: run it again"
+                    } else {
+                        ""
+                    };
+                    let b = ui.add_enabled(why.is_empty(), egui::Button::new(format!("Add {}", t.effect.name())));
+                    let b = b.on_hover_text("switch the effect on with its fitted parameters (on the calibrated model), simulate again and compare").on_disabled_hover_text(why);
+                    if b.clicked() {
+                        *cmd = Some(Command::AddTrial { effect: t.effect, measured });
+                    }
+                    ui.end_row();
+                }
+            });
+            ui.add_space(4.0);
+            ui.strong("Fitted parameters and evidence from the residual map");
+            for (i, t) in d.trials.iter().enumerate() {
+                let fitted: Vec<String> = t.parameter.iter().chain(t.extra_parameters.iter()).map(|(p, v)| format!("{} = {} {}", p.name(), fmt_num(*v), unit_of(p.name())).trim_end().to_string()).collect();
+                let fitted = if fitted.is_empty() { "a switch".to_string() } else { fitted.join(", ") };
+                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
+            }
+        });
+    }
+}
+
+impl View for ModelLoopView {
+    fn title(&self) -> &'static str {
+        "Model loop"
+    }
+
+    fn ui(&mut self, ui: &mut egui::Ui, session: &Session, settings: &Settings) -> Option<Command> {
+        let mut cmd = None;
+        let model = &session.model;
+        if self.draft.as_ref().map(|d| d.0) != Some(model.revision) {
+            self.draft = Some((model.revision, model.machine.clone()));
+        }
+        let measured = self.measured(session);
+        let measured_list = session.measured_indices();
+        let name = |i: usize| session.signals.get(i).map(|e| e.signal.name.clone()).unwrap_or_default();
+        let Some((_, draft)) = self.draft.as_mut() else { return None };
+        let valid = draft.validate();
+        ui.horizontal(|ui| {
+            egui::ComboBox::from_label("machine preset").selected_text(&model.preset).show_ui(ui, |ui| {
+                for (p, _) in PRESETS {
+                    if ui.selectable_label(*p == model.preset, p.to_string()).clicked() {
+                        cmd = Some(Command::LoadMachinePreset(p.to_string()));
+                    }
+                }
+            });
+            let mut chosen = measured;
+            egui::ComboBox::from_label("measured").selected_text(measured.map(name).unwrap_or_else(|| "none".into())).show_ui(ui, |ui| {
+                for &i in &measured_list {
+                    ui.selectable_value(&mut chosen, Some(i), name(i));
+                }
+            });
+            self.measured = chosen;
+            let ok = valid.is_ok();
+            if ui.add_enabled(ok, egui::Button::new("Simulate")).on_hover_text("simulate the machine as edited, list it with the signals and compare it with the measured signal").clicked() {
+                cmd = Some(Command::SimulateModel { measured: chosen });
+            }
+            let find = ui.add_enabled(ok && chosen.is_some(), egui::Button::new("Find missing effect")).on_hover_text("calibrate the model, try every missing effect with its parameters fitted, rank them (runs on a worker; Cancel in the status bar)");
+            if find.clicked() {
+                if let Some(m) = chosen {
+                    cmd = Some(Command::FindMissingEffect { measured: m });
+                }
+            }
+        });
+        let measured_now = self.measured;
+        let Some((_, draft)) = self.draft.as_mut() else { return cmd };
+        ui.weak(format!("{} · fs {:.0} Hz · effects on: {}", draft.name, draft.fs_hz, draft.effects.enabled().iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")));
+        let mut changed = false;
+        let mut new_settings = None;
+        let h = ui.available_height();
+        let left_w = (ui.available_width() * 0.4).clamp(300.0, 420.0);
+        ui.horizontal_top(|ui| {
+            ui.allocate_ui_with_layout(egui::vec2(left_w, h), egui::Layout::top_down(egui::Align::Min), |ui| {
+            ui.set_width(left_w);
+            egui::ScrollArea::vertical().id_salt("model-left").max_height(h).show(ui, |ui| {
+                ui.strong("Machine");
+                changed |= Self::machine_ui(ui, draft);
+                if let Err(e) = draft.validate() {
+                    ui.add(egui::Label::new(RichText::new(format!("Error: {e}")).color(ui.visuals().error_fg_color)).wrap());
+                    ui.weak("the last valid machine is kept; Simulate and Find missing effect use it once this is fixed");
+                }
+                ui.add_space(6.0);
+                ui.strong("Effects");
+                changed |= Self::effects_ui(ui, draft);
+                ui.add_space(6.0);
+                new_settings = Self::search_settings_ui(ui, settings, draft);
+            });
+            });
+            ui.separator();
+            ui.vertical(|ui| {
+                Self::rounds_ui(ui, session);
+                ui.separator();
+                Self::ranking_ui(measured_now, ui, session, &mut cmd);
+            });
+        });
+        if let Some(s) = new_settings {
+            cmd = cmd.or(Some(Command::SetSettings(s)));
+        }
+        if let Some((_, draft)) = self.draft.as_ref() {
+            if changed && draft.validate().is_ok() && *draft != session.model.machine {
+                cmd = cmd.or_else(|| Some(Command::SetMachine(Box::new(draft.clone()))));
+            }
+        }
+        cmd
+    }
+
+    fn plot_data(&self, session: &Session, _settings: &Settings) -> Option<PlotData> {
+        let h = &session.model.history;
+        if h.is_empty() {
+            return None;
+        }
+        let x: Vec<f64> = h.iter().map(|r| r.round as f64).collect();
+        Some(PlotData {
+            title: format!("Model loop: error over rounds ({})", session.model.preset),
+            x_label: "round".into(),
+            y_label: "NRMSE (%)".into(),
+            series: vec![
+                Series { name: "envelope NRMSE (%)".into(), x: x.clone(), y: h.iter().map(|r| r.envelope_nrmse).collect() },
+                Series { name: "objective (weighted NRMSE, %)".into(), x, y: h.iter().map(|r| r.objective).collect() },
+            ],
+        })
+    }
+}

@@ -1,0 +1,431 @@
+//! The desktop workbench driven without a display (egui_kittest, no GPU): the demo's envelope
+//! spectrum, running the envelope chain on a file, the filter view, and bad input (a corrupt
+//! file, a broken chain file) that shows an error while everything loaded stays.
+
+use egui::accesskit::Role;
+use egui_kittest::kittest::{NodeT, Queryable};
+use egui_kittest::Harness;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+use twinscope::gui::views::Command;
+use twinscope::gui::{StartOptions, Workbench};
+
+fn sample(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("sample_data").join(name)
+}
+
+fn harness(opts: StartOptions) -> Harness<'static, Workbench> {
+    Harness::builder().with_size(egui::vec2(1280.0, 800.0)).build_ui_state(|ui, app: &mut Workbench| app.ui(ui), Workbench::new(opts))
+}
+
+/// Steps the app until `done` holds, at most `secs` seconds (the worker threads run meanwhile).
+fn wait_for(h: &mut Harness<'static, Workbench>, what: &str, secs: u64, done: impl Fn(&Workbench) -> bool) {
+    let t0 = Instant::now();
+    loop {
+        h.step();
+        if done(h.state()) {
+            break;
+        }
+        let msgs: Vec<String> = h.state().session.messages.iter().map(|m| m.text.clone()).collect();
+        assert!(t0.elapsed() < Duration::from_secs(secs), "timed out after {secs} s waiting for {what}; messages: {msgs:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    h.run_steps(4);
+}
+
+fn idle(h: &mut Harness<'static, Workbench>, what: &str, secs: u64) {
+    wait_for(h, what, secs, |a| !a.worker.busy());
+}
+
+fn labels_containing(h: &Harness<'static, Workbench>, text: &str) -> Vec<String> {
+    h.query_all_by_label_contains(text).map(|n| n.accesskit_node().label().or_else(|| n.accesskit_node().value()).unwrap_or_default()).collect()
+}
+
+/// `X.XX Hz` labels of the peak table's frequency column, as numbers.
+fn hz_labels(h: &Harness<'static, Workbench>) -> Vec<f64> {
+    h.query_all_by_label_contains(" Hz").filter_map(|n| n.accesskit_node().label().or_else(|| n.accesskit_node().value())).filter_map(|l| l.strip_suffix(" Hz").and_then(|x| x.parse::<f64>().ok())).collect()
+}
+
+/// First start: the demo runs the envelope chain on CWRU 105; the peak table labels the top
+/// line BPFI near 162 Hz; the model is simulated and compared; the Compare tab shows metrics.
+#[test]
+fn demo_envelope_peak_is_bpfi_near_162_hz_and_model_is_compared() {
+    let mut h = harness(StartOptions { demo: true, ..Default::default() });
+    wait_for(&mut h, "the demo analysis", 120, |a| a.session.analysis.is_some());
+    // the window shows progress while the demo simulates, or is done
+    let bpfi = labels_containing(&h, "BPFI (");
+    assert!(!bpfi.is_empty(), "no peak labelled BPFI in the peak table");
+    let a = h.state().session.analysis.as_ref().unwrap();
+    let top = &a.peaks[0];
+    assert!(top.label().starts_with("BPFI ("), "top peak label {}", top.label());
+    assert!((top.frequency_hz - 162.0).abs() < 1.5, "top peak at {} Hz", top.frequency_hz);
+    assert!(bpfi.contains(&top.label()), "table shows {bpfi:?}, top peak {}", top.label());
+    let shown = format!("{:.2}", top.frequency_hz).parse::<f64>().unwrap();
+    assert!(hz_labels(&h).contains(&shown), "the table shows {shown} Hz");
+    assert!(!labels_containing(&h, "Envelope spectrum — stage `envelope_spectrum` of chain `envelope_cwru`").is_empty());
+
+    idle(&mut h, "the demo simulation and comparison", 300);
+    let s = h.state();
+    assert_eq!(s.session.signals.len(), 2, "measured + simulated");
+    assert!(s.session.comparison.is_some(), "messages: {:?}", s.session.messages.iter().map(|m| &m.text).collect::<Vec<_>>());
+    h.get_by_label("Compare").click();
+    h.run_steps(4);
+    assert!(h.query_by_label("Pearson r").is_some());
+    assert!(h.query_by_label("Residual map").is_some());
+    let env_nrmse = h.state().session.comparison.as_ref().unwrap().comparison.envelope_nrmse();
+    assert!(!labels_containing(&h, &format!("{env_nrmse:.1} %")).is_empty(), "envelope NRMSE {env_nrmse:.1} % shown");
+    // the filter view shows the designed bandpass and its spec
+    h.get_by_label("Filter").click();
+    h.run_steps(4);
+    assert!(h.query_by_label("passband ripple").is_some());
+    assert!(!labels_containing(&h, "1800–3000 Hz").is_empty());
+}
+
+/// Load a file by path, run the envelope chain: first without a bearing (the STSA fault needs
+/// one: an error is shown, nothing is lost), then with the bearing chosen in the metadata
+/// editor; the outer-race recording 130 shows a BPFO line.
+#[test]
+fn envelope_chain_runs_on_a_loaded_file() {
+    let mut h = harness(StartOptions { files: vec![sample("130_de_outer6_007_0hp_12k.mat")], ..Default::default() });
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    assert!(h.query_by_label("X130_DE_time").is_some(), "signal listed");
+    assert!(h.query_by_label("12000 Hz").is_some(), "fs listed");
+    h.get_by_label("Run chain").click();
+    h.run_steps(2);
+    idle(&mut h, "the chain", 60);
+    let err = labels_containing(&h, "Error:");
+    assert!(err.iter().any(|e| e.contains("needs a bearing")), "errors shown: {err:?}");
+    assert!(h.state().session.analysis.is_none());
+    assert_eq!(h.state().session.signals.len(), 1);
+
+    // choose the bearing in the metadata editor and apply it
+    h.get_all_by_role(Role::ComboBox).find(|n| n.value().as_deref() == Some("none")).expect("bearing combo box").click();
+    h.run_steps(2);
+    h.get_by_label("SKF 6205-2RS JEM").click();
+    h.run_steps(2);
+    h.get_by_label("Apply metadata").click();
+    h.run_steps(2);
+    assert_eq!(h.state().session.signals[0].signal.meta.bearing.as_deref(), Some("SKF 6205-2RS JEM"));
+    h.get_by_label("Run chain").click();
+    h.run_steps(2);
+    wait_for(&mut h, "the chain", 60, |a| a.session.analysis.is_some());
+    let bpfo = labels_containing(&h, "BPFO (");
+    assert!(!bpfo.is_empty(), "peak table: {:?}", h.state().session.analysis.as_ref().unwrap().peaks);
+    let a = h.state().session.analysis.as_ref().unwrap();
+    assert_eq!(a.chain.name, "envelope_cwru");
+    let p = a.peaks.iter().find(|p| p.label().starts_with("BPFO (")).unwrap();
+    assert!((p.frequency_hz - 107.4).abs() < 1.5, "BPFO line at {} Hz", p.frequency_hz);
+}
+
+/// A corrupt file shows the loader's error in the UI; the loaded signal stays listed and
+/// selected. A broken chain file shows its error and the chain stays as it was.
+#[test]
+fn corrupt_file_shows_error_and_keeps_loaded_signal() {
+    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], ..Default::default() });
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    assert!(h.query_by_label("X105_DE_time").is_some());
+
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("broken.mat");
+    std::fs::write(&bad, b"MATLAB 5.0 MAT-file, this is not really one").unwrap();
+    h.state_mut().execute(Command::OpenSignal(bad.clone()));
+    h.run_steps(2);
+    idle(&mut h, "the corrupt file", 60);
+    let err = labels_containing(&h, "Error:");
+    assert!(err.iter().any(|e| e.contains("broken.mat") && e.contains("MAT")), "errors shown: {err:?}");
+    assert!(h.query_by_label("X105_DE_time").is_some(), "the loaded signal is still listed");
+    assert_eq!(h.state().session.signals.len(), 1);
+    assert_eq!(h.state().session.selected, Some(0));
+
+    let stages = h.state().session.chain.stages.len();
+    let bad_chain = dir.path().join("bad_chain.toml");
+    std::fs::write(&bad_chain, "name = \"x\"\n[[stage]]\nkind = \"bandpass\"\npass_band_hz = \"wide\"\n").unwrap();
+    h.state_mut().execute(Command::OpenChain(bad_chain));
+    h.run_steps(3);
+    let err = labels_containing(&h, "Error:");
+    assert!(err.iter().any(|e| e.contains("bad_chain.toml") && e.contains("stage 1 `bandpass`") && e.contains("`pass_band_hz`: ") && e.contains("expected an array of length 2")), "errors shown: {err:?}");
+    assert_eq!(h.state().session.chain.stages.len(), stages, "the chain is kept");
+
+    // and the app still works: the chain runs on the kept signal
+    h.state_mut().session.signals[0].signal.meta.bearing = Some("SKF 6205-2RS JEM".into());
+    h.run_steps(2);
+    h.get_by_label("Run chain").click();
+    h.run_steps(2);
+    wait_for(&mut h, "the chain", 60, |a| a.session.analysis.is_some());
+    assert!(!labels_containing(&h, "BPFI (").is_empty());
+}
+
+/// The chain editor: add a stage, reorder it, remove it; a save/load round trip keeps it.
+#[test]
+fn chain_editor_adds_reorders_removes_and_round_trips() {
+    let mut h = harness(StartOptions::default());
+    h.run_steps(3);
+    let n0 = h.state().session.chain.stages.len();
+    assert_eq!(n0, 5, "envelope_cwru has 5 stages");
+    h.get_by_label("Add stage").click();
+    h.run_steps(3);
+    let names: Vec<String> = h.state().session.chain.stages.iter().map(|s| s.name.clone()).collect();
+    assert_eq!(names.len(), 6);
+    assert_eq!(names[5], "normalise_2");
+    assert!(h.query_by_label("6. normalise_2 (normalise)").is_some());
+    // open its header and move it up
+    h.get_by_label("6. normalise_2 (normalise)").click();
+    h.run_steps(3);
+    h.get_all_by_label("Up").last().unwrap().click();
+    h.run_steps(3);
+    assert_eq!(h.state().session.chain.stages[4].name, "normalise_2");
+    assert!(h.query_by_label("5. normalise_2 (normalise)").is_some());
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("edited.toml");
+    h.state_mut().execute(Command::SaveChain(p.clone()));
+    h.state_mut().execute(Command::ChainPreset("welch".into()));
+    h.run_steps(3);
+    assert_eq!(h.state().session.chain.name, "welch");
+    h.state_mut().execute(Command::OpenChain(p));
+    h.run_steps(3);
+    assert_eq!(h.state().session.chain.stages.len(), 6);
+    assert_eq!(h.state().session.chain.stages[4].name, "normalise_2");
+    h.get_by_label("5. normalise_2 (normalise)").click();
+    h.run_steps(3);
+    h.get_all_by_label("Remove").last().unwrap().click();
+    h.run_steps(3);
+    assert_eq!(h.state().session.chain.stages.len(), 5);
+}
+
+/// The SCF view computes the Fast-SC of the selected signal on a worker and draws the 3D
+/// surface with its colour scale and axis labels: the scale's maximum is the largest |S| over
+/// the shown α range (in dB, from the map itself), the α axis label names the range. The 2D
+/// map and the α-slices (at BPFI) show too.
+#[test]
+fn scf_view_shows_surface_colour_scale_and_slices() {
+    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], tab: Some("scf".into()), ..Default::default() });
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    wait_for(&mut h, "the SCF", 120, |a| a.session.scf.is_some());
+    idle(&mut h, "the SCF job", 60);
+    assert_eq!(h.state().active_tab(), 4);
+    let r = h.state().session.scf.as_ref().unwrap();
+    assert_eq!(r.signal_name, "X105_DE_time");
+    // the largest |S| with 5 Hz ≤ α ≤ 500 Hz, straight from the map
+    let nf = r.map.n_frequency();
+    let mut max = 0.0f64;
+    for (ia, a) in r.map.alpha_hz.iter().enumerate() {
+        if (5.0..=500.0).contains(a) {
+            for jf in 0..nf {
+                max = max.max(r.map.scf[ia * nf + jf].norm());
+            }
+        }
+    }
+    // 3D surface, linear: the colour scale's maximum is that |S|, in g²/Hz, to its 3 digits
+    let shown = labels_containing(&h, "max ");
+    assert_eq!(shown.len(), 1, "{shown:?}");
+    let v: f64 = shown[0].trim_start_matches("max ").trim_end_matches(" g²/Hz").parse().unwrap();
+    assert!((v / max - 1.0).abs() < 0.01, "colour scale max {v} vs |S| max {max}");
+    assert!(h.query_by_label("|S(α, f)| (g²/Hz)").is_some(), "colour scale title");
+    let want = format!("max {:.1} dB", 10.0 * max.log10());
+    let alpha = labels_containing(&h, "α (Hz): ");
+    assert_eq!(alpha.len(), 1, "{alpha:?}");
+    let (lo, hi) = alpha[0].trim_start_matches("α (Hz): ").split_once(" – ").map(|(a, b)| (a.parse::<f64>().unwrap(), b.parse::<f64>().unwrap())).unwrap();
+    assert!((5.0..6.0).contains(&lo) && (490.0..=500.0).contains(&hi), "α range {lo}–{hi}");
+    assert!(!labels_containing(&h, "f (Hz): 0 – 6000").is_empty(), "{:?}", labels_containing(&h, "f (Hz)"));
+
+    h.get_by_label("2D map").click();
+    h.run_steps(3);
+    assert!(h.query_by_label(&want).is_some(), "the 2D map (dB) shows {want}: {:?}", labels_containing(&h, "max "));
+    assert!(h.query_by_label("|S(α, f)| (dB re 1 g²/Hz)").is_some(), "colour scale title in dB");
+    // with the bearing known, Compute SCF again: the α picks include the fault frequencies
+    assert!(h.query_all_by_label_contains("BPFI ").next().is_none());
+    h.state_mut().execute(Command::SetMetadata { index: 0, fs_hz: 12000.0, shaft_speed_hz: Some(1797.0 / 60.0), bearing: Some("SKF 6205-2RS JEM".into()) });
+    h.get_by_label("Compute SCF").click();
+    h.run_steps(2);
+    wait_for(&mut h, "the SCF with fault lines", 120, |a| a.session.scf.as_ref().is_some_and(|r| r.families.iter().any(|f| f.label == "BPFI")));
+    idle(&mut h, "the SCF job", 60);
+    h.get_by_label("α-slices").click();
+    h.run_steps(3);
+    let bpfi = h.query_all_by_label_contains("BPFI ").next().expect("an α pick at BPFI").accesskit_node().label().unwrap_or_default();
+    let a: f64 = bpfi.trim_start_matches("BPFI ").trim_end_matches(" Hz").parse().unwrap();
+    assert!((a - 162.19).abs() < 0.5, "BPFI pick at {a} Hz");
+    h.get_by_label(&bpfi).click();
+    h.run_steps(3);
+    assert!(!labels_containing(&h, "slice at the grid α nearest 162.").is_empty(), "{:?}", labels_containing(&h, "slice at"));
+}
+
+/// The model loop with a fast search (0.3 s fits, 3 evaluations per parameter, one sweep, two
+/// candidate effects): Find missing effect ranks both with before → after numbers and a
+/// verdict; Add switches the ranked effect on with its fitted parameters, re-simulates and
+/// re-compares, and the rounds chart gets its second point. The rounds export as CSV and SVG.
+#[test]
+fn model_loop_finds_ranks_and_adds_an_effect() {
+    use twinscope::model::EffectKind;
+    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], tab: Some("model".into()), ..Default::default() });
+    {
+        let s = &mut h.state_mut().settings;
+        s.loop_fit_duration_s = 0.3;
+        s.loop_evaluations_per_parameter = 3;
+        s.loop_sweeps = 1;
+        s.loop_candidates = vec![EffectKind::LoadZone, EffectKind::Slip];
+    }
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    assert_eq!(h.state().session.model.preset, "cwru_6205_inner");
+    assert!(h.query_by_label("Find missing effect").is_some());
+    assert!(h.query_by_label("No rounds yet: Find missing effect starts round 1.").is_some());
+    assert!(!h.state().session.model.machine.effects.is_on(EffectKind::LoadZone));
+    h.get_by_label("Find missing effect").click();
+    h.run_steps(2);
+    assert!(h.state().worker.busy(), "the search runs on a worker");
+    wait_for(&mut h, "the missing-effect search", 600, |a| a.session.model.result.is_some() || (!a.worker.busy() && a.session.last_error().is_some()));
+    idle(&mut h, "the search", 60);
+    let r = h.state().session.model.result.clone().expect("a ranking");
+    assert_eq!(r.diagnosis.trials.len(), 2, "two candidates tried");
+    let first = r.diagnosis.trials[0].clone();
+    let label = format!("1. {}", first.effect.name());
+    assert!(h.query_by_label(&label).is_some(), "ranked label {label}");
+    assert!(h.query_by_label(&format!("{:.1} -> {:.1} %", first.envelope_nrmse_before, first.envelope_nrmse_after)).is_some(), "envelope NRMSE before → after shown");
+    assert!(!labels_containing(&h, "Verdict: ").is_empty());
+    assert_eq!(h.state().session.model.history.len(), 1);
+    assert!(h.query_by_label("round 1").is_some());
+
+    let add_label = format!("Add {}", first.effect.name());
+    let add = h.get_by_label(&add_label);
+    assert!(!add.accesskit_node().is_disabled(), "Add is enabled");
+    add.click();
+    h.run_steps(2);
+    let m = &h.state().session.model;
+    assert!(m.machine.effects.is_on(first.effect), "{} is on; messages {:?}; button at {:?}", first.effect.name(), h.state().session.messages.iter().map(|m| &m.text).collect::<Vec<_>>(), h.get_by_label(&add_label).rect());
+    for (p, v) in first.parameter.iter().chain(first.extra_parameters.iter()) {
+        assert_eq!(p.get(&m.machine), Some(*v), "{} set to its fitted value", p.name());
+    }
+    assert_eq!(m.history.len(), 2, "the rounds chart has 2 points");
+    assert_eq!(m.history[0].applied, Some(first.effect));
+    assert_eq!(m.history[1].envelope_nrmse, first.envelope_nrmse_after);
+    assert!(h.query_by_label("round 2").is_some());
+    assert!(h.state().worker.busy(), "re-simulating");
+    wait_for(&mut h, "the new model simulated and compared", 300, |a| !a.worker.busy());
+    let s = h.state();
+    assert!(s.session.last_error().is_none(), "errors: {:?}", s.session.last_error());
+    let sim = s.session.signals.iter().find(|e| e.signal.name.contains(first.effect.name())).expect("the new model is listed");
+    assert!(sim.signal.name.starts_with("cwru_6205_inner model ("));
+    let c = s.session.comparison.as_ref().expect("re-compared");
+    assert_eq!(c.simulated, sim.signal.name);
+    // the Add button is done, the others wait for a new search
+    assert!(h.query_by_label(&format!("Add {}", r.diagnosis.trials[1].effect.name())).is_some());
+
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("rounds.csv");
+    h.state_mut().execute(Command::ExportCsv(csv.clone()));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "round,envelope NRMSE (%),\"objective (weighted NRMSE, %)\"");
+    assert_eq!(lines.len(), 3);
+    assert_eq!(lines[2].split(',').nth(1).unwrap().parse::<f64>().unwrap(), first.envelope_nrmse_after);
+    let svg = dir.path().join("rounds.svg");
+    h.state_mut().execute(Command::ExportSvg(svg.clone()));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.contains(">round</text>") && text.matches("<polyline").count() == 2);
+}
+
+/// A machine parameter out of range (resonance above Nyquist) shows the validation error in
+/// the view; the machine keeps its last valid value.
+#[test]
+fn model_loop_refuses_an_invalid_parameter() {
+    use twinscope::compare::Param;
+    let mut h = harness(StartOptions { tab: Some("model".into()), ..Default::default() });
+    h.run_steps(3);
+    let before = Param::ResonanceHz.get(&h.state().session.model.machine).unwrap();
+    // set 9000 Hz in the resonance editor (fs is 12 kHz)
+    let spin = |h: &Harness<'static, Workbench>| h.get_all_by_role(Role::SpinButton).find(|n| n.accesskit_node().label().as_deref() == Some("resonance")).expect("resonance editor").value();
+    assert_eq!(spin(&h).as_deref(), Some("2600 Hz"));
+    h.get_all_by_role(Role::SpinButton).find(|n| n.accesskit_node().label().as_deref() == Some("resonance")).unwrap().set_value_accesskit(9000.0);
+    h.run_steps(3);
+    assert_eq!(spin(&h).as_deref(), Some("9000 Hz"), "the editor shows what was typed");
+    let err = labels_containing(&h, "Error: ");
+    assert!(err.iter().any(|e| e.contains("resonator_frequency_hz") && e.contains("Nyquist")), "errors: {err:?}");
+    assert_eq!(Param::ResonanceHz.get(&h.state().session.model.machine), Some(before), "the machine keeps its valid resonance");
+    assert!(h.get_by_label("Simulate").accesskit_node().is_disabled(), "Simulate waits for a valid machine");
+    // back in range: taken
+    h.get_all_by_role(Role::SpinButton).find(|n| n.accesskit_node().label().as_deref() == Some("resonance")).unwrap().set_value_accesskit(2800.0);
+    h.run_steps(3);
+    assert_eq!(Param::ResonanceHz.get(&h.state().session.model.machine), Some(2800.0));
+    assert!(labels_containing(&h, "Error: ").is_empty());
+}
+
+/// A session saved with a loaded file, a metadata edit, another chain and another machine
+/// reopens with the same file and channel, metadata, chain, machine and rounds.
+#[test]
+fn session_round_trips() {
+    let mut h = harness(StartOptions { files: vec![sample("130_de_outer6_007_0hp_12k.mat")], ..Default::default() });
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    h.state_mut().execute(Command::LoadChannel { index: 0, channel: "X130_FE_time".into() });
+    h.run_steps(2);
+    idle(&mut h, "the FE channel", 60);
+    h.state_mut().execute(Command::SetMetadata { index: 0, fs_hz: 12000.0, shaft_speed_hz: Some(29.5), bearing: Some("SKF 6205-2RS JEM".into()) });
+    h.state_mut().execute(Command::ChainPreset("welch".into()));
+    h.state_mut().execute(Command::LoadMachinePreset("cwru_6205_outer".into()));
+    h.state_mut().session.model.history.push(twinscope::compare::Round { round: 1, effects_on: vec![], domains: vec![], envelope_nrmse: 42.5, objective: 61.25, verdict: "v".into(), applied: None });
+    h.run_steps(2);
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("s.twinscope.json");
+    h.state_mut().execute(Command::SaveSession(p.clone()));
+    assert!(h.state().session.last_error().is_none(), "{:?}", h.state().session.last_error());
+    let saved = twinscope::gui::session_file::SessionFile::load(&p).unwrap();
+    assert_eq!(saved.signals.len(), 1);
+    assert_eq!(saved.signals[0].channel.as_deref(), Some("X130_FE_time"));
+
+    let mut g = harness(StartOptions::default());
+    g.run_steps(2);
+    g.state_mut().execute(Command::OpenSession(p));
+    wait_for(&mut g, "the session's signals", 60, |a| !a.session.signals.is_empty() && !a.worker.busy());
+    let (a, b) = (&g.state().session, &h.state().session);
+    assert_eq!(a.signals.len(), 1);
+    let (sa, sb) = (&a.signals[0].signal, &b.signals[0].signal);
+    assert_eq!(sa.name, "X130_FE_time");
+    assert_eq!(sa.samples, sb.samples);
+    assert_eq!((sa.fs_hz, sa.meta.shaft_speed_hz, sa.meta.bearing.as_deref()), (12000.0, Some(29.5), Some("SKF 6205-2RS JEM")));
+    assert_eq!(a.signals[0].file, b.signals[0].file);
+    assert_eq!(a.chain, b.chain);
+    assert_eq!(a.model.preset, "cwru_6205_outer");
+    assert_eq!(a.model.machine, b.model.machine);
+    assert_eq!(a.model.history, b.model.history);
+    assert!(g.query_by_label("X130_FE_time").is_some());
+    // a broken session file shows an error and keeps what is loaded
+    let bad = dir.path().join("bad.twinscope.json");
+    std::fs::write(&bad, "{\"format\": \"twinscope session 1\", \"signals\": 3}").unwrap();
+    g.state_mut().execute(Command::OpenSession(bad));
+    idle(&mut g, "the bad session", 30);
+    let err = labels_containing(&g, "Error:");
+    assert!(err.iter().any(|e| e.contains("bad.twinscope.json") && e.contains("not a twinscope session")), "{err:?}");
+    assert_eq!(g.state().session.signals.len(), 1);
+}
+
+/// Find missing effect reports its progress in model evaluations and stops on Cancel: the
+/// job ends as cancelled, no ranking or round is recorded, and the app goes on.
+#[test]
+fn model_loop_search_shows_progress_and_cancels() {
+    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], tab: Some("model".into()), ..Default::default() });
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    // the default (full) search: every missing effect, 1.5 s fits
+    h.get_by_label("Find missing effect").click();
+    h.run_steps(2);
+    wait_for(&mut h, "the first model evaluations", 120, |a| a.worker.jobs().first().and_then(|j| j.progress()).is_some_and(|p| p > 0.0));
+    let (p, step) = {
+        let j = &h.state().worker.jobs()[0];
+        (j.progress().unwrap(), j.step())
+    };
+    assert!(p > 0.0 && p < 0.5, "progress {p}");
+    assert!(step.starts_with("model evaluation ") && step.contains(" of "), "step `{step}`");
+    let shown = labels_containing(&h, "model evaluation ");
+    assert!(!shown.is_empty(), "the status bar shows the evaluation count");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    let t0 = Instant::now();
+    idle(&mut h, "the cancelled search", 120);
+    assert!(t0.elapsed() < Duration::from_secs(60), "cancel took {:?}", t0.elapsed());
+    let s = h.state();
+    assert!(s.session.model.result.is_none() && s.session.model.history.is_empty());
+    assert!(s.session.messages.iter().any(|m| m.text.ends_with(": cancelled")), "{:?}", s.session.messages.iter().map(|m| &m.text).collect::<Vec<_>>());
+    assert_eq!(s.session.signals.len(), 1, "nothing loaded is lost");
+}
