@@ -489,7 +489,7 @@ mod tests {
         assert_eq!(best, Some(EffectKind::Misalignment));
         // Scatter 3: even the best improvement (8) is within 2√2 σ = 8.5 — nothing significant.
         // (All three are tied then; slip, with the strongest evidence, would lead.)
-        let (r, best, v) = decide(ts.clone(), j0, floor, 3.0, &o);
+        let (r, best, _) = decide(ts.clone(), j0, floor, 3.0, &o);
         assert_eq!(r[0].effect, EffectKind::Slip);
         assert_eq!(best, None);
         let mut ts3 = ts.clone();
