@@ -173,8 +173,7 @@ pub fn seed_floor(m: &Machine, like: &Signal, against: &Comparison, opts: &LoopO
     let runs: Vec<Result<Comparison, LoopError>> = FLOOR_SEEDS
         .par_iter()
         .map(|&s| {
-            let mut twin = m.clone();
-            twin.seed = m.seed ^ s;
+            let mut twin = reseeded(m, s);
             twin.duration_s = opts.fit_duration_s.min(like.duration_s());
             let mut pseudo = crate::model::simulate(&twin)?;
             pseudo.unit = like.unit.clone();
@@ -195,6 +194,13 @@ pub fn seed_floor(m: &Machine, like: &Signal, against: &Comparison, opts: &LoopO
     Ok((objective(&floor, &opts.weights), domains))
 }
 
+/// `m` with its random seed mixed with `salt`: the same machine, another realisation.
+fn reseeded(m: &Machine, salt: u64) -> Machine {
+    let mut t = m.clone();
+    t.seed = m.seed ^ salt;
+    t
+}
+
 /// Seeds of the re-runs behind [`objective_scatter`].
 const SCATTER_SEEDS: [u64; 2] = [0x5CA7_0001, 0x5CA7_0002];
 
@@ -204,9 +210,7 @@ pub fn objective_scatter(m: &Machine, reference: &Reference, j_own_seed: f64, op
     let js: Vec<Result<f64, LoopError>> = SCATTER_SEEDS
         .par_iter()
         .map(|&s| {
-            let mut t = m.clone();
-            t.seed = m.seed ^ s;
-            Ok(objective(&evaluate(&t, reference, opts)?.0, &opts.weights))
+            Ok(objective(&evaluate(&reseeded(m, s), reference, opts)?.0, &opts.weights))
         })
         .collect();
     let mut all = vec![j_own_seed];

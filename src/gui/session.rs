@@ -297,6 +297,16 @@ impl Session {
         self.selected.and_then(|i| self.signals.get(i))
     }
 
+    /// Names of the time-domain stages of the last chain run, if it ran on the selected signal
+    /// (the views offer them as sources beside the raw signal).
+    pub fn time_stages_of_selected(&self) -> Vec<String> {
+        self.analysis
+            .as_ref()
+            .filter(|a| Some(a.signal_id) == self.selected_signal().map(|e| e.id))
+            .map(|a| a.result.stages.iter().filter(|s| matches!(s.data, crate::chain::Data::Time(_))).map(|s| s.name.clone()).collect())
+            .unwrap_or_default()
+    }
+
     /// Adds a status message.
     pub fn tell(&mut self, level: Level, text: impl Into<String>) {
         self.messages.push(StatusMessage { level, text: text.into() });

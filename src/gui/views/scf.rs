@@ -12,7 +12,6 @@
 
 use super::spectra::family_colour;
 use super::{Command, View};
-use crate::chain::Data;
 use crate::dsp::scf::ScfParams;
 use crate::gui::session::{ScfResult, Session};
 use crate::gui::settings::Settings;
@@ -189,12 +188,7 @@ impl ScfView {
     }
 
     fn controls(&mut self, ui: &mut egui::Ui, session: &Session, cmd: &mut Option<Command>) {
-        let stages: Vec<String> = session
-            .analysis
-            .as_ref()
-            .filter(|a| Some(a.signal_id) == session.selected_signal().map(|e| e.id))
-            .map(|a| a.result.stages.iter().filter(|s| matches!(s.data, Data::Time(_))).map(|s| s.name.clone()).collect())
-            .unwrap_or_default();
+        let stages = session.time_stages_of_selected();
         if self.source != "raw" && !stages.contains(&self.source) {
             self.source = "raw".into();
         }

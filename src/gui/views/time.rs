@@ -53,12 +53,7 @@ impl View for TimeView {
         if self.source.is_empty() {
             self.source = "raw".into();
         }
-        let stages: Vec<String> = session
-            .analysis
-            .as_ref()
-            .filter(|a| Some(a.signal_id) == session.selected_signal().map(|e| e.id))
-            .map(|a| a.result.stages.iter().filter(|s| matches!(s.data, Data::Time(_))).map(|s| s.name.clone()).collect())
-            .unwrap_or_default();
+        let stages = session.time_stages_of_selected();
         ui.horizontal(|ui| {
             egui::ComboBox::from_label("show").selected_text(&self.source).show_ui(ui, |ui| {
                 ui.selectable_value(&mut self.source, "raw".to_string(), "raw (the selected signal)");
