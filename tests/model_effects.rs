@@ -11,6 +11,9 @@
 //! Run: `cargo test --release --test model_effects -- --nocapture` prints the measured
 //! OFF/ON numbers.
 
+#[macro_use]
+mod common;
+
 use twinscope::dsp::envelope::{envelope, envelope_spectrum, EnvelopeParams};
 use twinscope::dsp::remez::{bandpass_zero_phase, BandpassSpec};
 use twinscope::dsp::spectrum::{amplitude_spectrum, Spectrum, SpectrumParams};
@@ -49,18 +52,7 @@ mass_kg = 2.0
 damping_n_s_per_m = 200.0
 {shaft_extra}
 
-[[bearing]]
-name = "de"
-shaft = "motor"
-catalogue = "SKF 6205-2RS JEM"
-radial_clearance_m = 5e-6
-hertz_constant_n_per_m_n = 8.0e9
-pedestal_mass_kg = 5.0
-pedestal_stiffness_n_per_m = 1.5e8
-pedestal_damping_n_s_per_m = 3000.0
-resonator_frequency_hz = 2600.0
-resonator_damping_ratio = 0.04
-resonator_mass_kg = 0.05
+{bearing}
 {fault}
 [sensor]
 dof = "de.resonator.y"
@@ -68,7 +60,8 @@ unit = "m/s^2"
 
 [effects.nonlinear_contact]
 {extra}
-"#
+"#,
+        bearing = cwru_de_bearing_toml!()
     );
     Machine::from_toml(&text, "bearing_machine").unwrap_or_else(|e| panic!("{e}\n{text}"))
 }

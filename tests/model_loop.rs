@@ -87,9 +87,10 @@ fn progress_counts_every_evaluation_and_cancel_stops_the_search() {
     assert!(d.is_ok(), "{:?}", d.err());
     // Every model evaluation is reported, and the expected total is exact when no trial is
     // skipped: calibration 1 + 4 parameters × 4, the calibrated model 1, the floor 2, the seed
-    // scatter 2, slip 1 + 4 + noise refit 3, casing_modes 1 + 3 × 4 (grid, then line search) + 3,
-    // then both (the top 3) re-fit the 4 calibrated parameters locally: 2 × (1 + 4 × 3).
-    let expected = (1 + 4 * 4) + 1 + 2 + 2 + (1 + 4 + 3) + (1 + 12 + 3) + 2 * (1 + 4 * 3);
+    // scatter 2, slip 1 + 4 + noise refit 3, casing_modes re-doing the calibration with the mode
+    // 1 + 3 × 4 (grid, then line search) + 4 × 4, then both (the top 3) re-fit the 4 calibrated
+    // parameters locally: 2 × (1 + 4 × 3).
+    let expected = (1 + 4 * 4) + 1 + 2 + 2 + (1 + 4 + 3) + (1 + 12 + 4 * 4) + 2 * (1 + 4 * 3);
     assert_eq!(last_expected.load(Ordering::SeqCst), expected);
     assert_eq!(last_done.load(Ordering::SeqCst), expected);
     assert_eq!(calls.load(Ordering::SeqCst), expected);
@@ -127,4 +128,41 @@ fn the_seed_floor_is_what_the_model_scores_against_itself() {
     let t = &d.trials[0];
     assert_eq!(t.effect, EffectKind::LoadZone);
     assert!(t.explained > 0.5, "load_zone explains {:.0} % of the error above the floor", t.explained * 100.0);
+}
+
+#[test]
+fn the_misalignment_trial_scales_its_1x_force_with_the_2x() {
+    // A misalignment fitted to a weak 2× must not keep a fixed 1× force and pass for an
+    // unbalance: the 1× follows the 2× at the ratio the machine gives (1:4 by default).
+    let mut m = model::preset("mfs_inner").unwrap();
+    m.effects.enable(EffectKind::Misalignment);
+    let mi = m.effects.misalignment.clone().unwrap();
+    let ratio = mi.force_1x_n / mi.force_2x_n;
+    Param::Misalignment2xN.set(&mut m, 0.1);
+    let mi = m.effects.misalignment.as_ref().unwrap();
+    assert_eq!(mi.force_2x_n, 0.1);
+    assert!((mi.force_1x_n - 0.1 * ratio).abs() < 1e-12, "1× force {} N", mi.force_1x_n);
+}
+
+#[test]
+fn a_hidden_casing_mode_is_found_by_recalibrating_with_it() {
+    // The "measurement" has a casing mode at 3.2 kHz (seed 1302 of the bearing-base table); the
+    // calibration without it bends the resonance and the fault depth to imitate it. The
+    // casing-mode trial re-does the calibration with the mode and must win, and un-bend the
+    // resonance towards the truth.
+    let base = model::preset("mfs_inner").unwrap();
+    let (mut truth, model_m, true_param, snr) = hidden::make_case(&base, Some(EffectKind::CasingModes), 1302);
+    truth.duration_s = 2.0;
+    let measured = model::simulate(&truth).unwrap();
+    let opts = LoopOptions { candidates: vec![EffectKind::CasingModes, EffectKind::SensorResponse, EffectKind::Slip], ..Default::default() };
+    let (cal_m, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
+    let (_, f_true) = true_param.unwrap();
+    eprintln!("true mode {f_true:.0} Hz, SNR {snr:.1} dB; {}", d.verdict);
+    assert_eq!(d.best, Some(EffectKind::CasingModes), "{}", d.verdict);
+    let t = &d.trials[0];
+    let (_, f_fit) = t.parameter.unwrap();
+    assert!((f_fit - f_true).abs() < 0.1 * f_true, "fitted mode {f_fit:.0} Hz, true {f_true:.0} Hz");
+    let res = |m: &model::Machine| Param::ResonanceHz.get(m).unwrap();
+    let res_fit = t.extra_parameters.iter().find(|(p, _)| *p == Param::ResonanceHz).map(|x| x.1).expect("the trial re-fits the resonance");
+    assert!((res_fit - res(&truth)).abs() < (res(&cal_m) - res(&truth)).abs(), "resonance: true {:.0}, calibrated {:.0}, trial {res_fit:.0} Hz", res(&truth), res(&cal_m));
 }

@@ -2,13 +2,17 @@
 //! (or the DOF), never a panic; the CLI exits non-zero with one error line and writes no file.
 //! Controls: the unmodified base machines pass the same path.
 
+#[macro_use]
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 use twinscope::model::{Machine, Model, ModelError, Simulator};
 
 /// A copy of the CWRU inner-race preset as committed with the model (kept here so edits of the
 /// bundled preset do not move these tests).
-const CWRU: &str = r#"
+const CWRU: &str = concat!(
+    r#"
 name = "CWRU 6205 drive end, inner-race fault"
 fs_hz = 12000.0
 duration_s = 2.0
@@ -22,19 +26,9 @@ speed_hz = 29.95
 mass_kg = 2.0
 damping_n_s_per_m = 200.0
 
-[[bearing]]
-name = "de"
-shaft = "motor"
-catalogue = "SKF 6205-2RS JEM"
-radial_clearance_m = 5e-6
-hertz_constant_n_per_m_n = 8.0e9
-pedestal_mass_kg = 5.0
-pedestal_stiffness_n_per_m = 1.5e8
-pedestal_damping_n_s_per_m = 3000.0
-resonator_frequency_hz = 2600.0
-resonator_damping_ratio = 0.04
-resonator_mass_kg = 0.05
-
+"#,
+    cwru_de_bearing_toml!(),
+    r#"
 [bearing.fault]
 location = "inner"
 length_m = 0.178e-3
@@ -45,7 +39,8 @@ dof = "de.resonator.y"
 unit = "g"
 
 [effects.nonlinear_contact]
-"#;
+"#
+);
 
 /// A valid two-shaft gearbox: 20:40 spur pair, one bearing per shaft.
 const GEARBOX: &str = r#"

@@ -9,6 +9,7 @@
 
 use super::{apply_gain_db, CompareError, CompareOptions, Comparison, Reference};
 use crate::model::{self, EffectKind, Machine, ModelError};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// A fittable model parameter.
@@ -197,8 +198,13 @@ impl Param {
                 }
             }
             Param::Misalignment2xN => {
+                // The 1× force scales with the 2× one (their ratio is kept, 1:4 by default):
+                // a misalignment whose 2× fits to nothing must not keep a fixed 1× force and
+                // pass for an unbalance.
                 if let Some(x) = e.misalignment.as_mut() {
-                    x.force_2x_n = v
+                    let ratio_1x_to_2x = if x.force_2x_n > 0.0 { x.force_1x_n / x.force_2x_n } else { 0.25 };
+                    x.force_2x_n = v;
+                    x.force_1x_n = ratio_1x_to_2x * v;
                 }
             }
             Param::ExtendedFaultDepthM => {
@@ -492,22 +498,14 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
             let x0 = p.get(&best_m).unwrap_or(lo).clamp(lo, hi);
             let mut cache: Vec<(f64, f64, Comparison, f64)> = Vec::new();
             let base = best_m.clone();
-            let mut eval_at = |u: f64| {
+            let evaluate_at = |u: f64| -> Option<(f64, Comparison, f64)> {
                 if progress.is_cancelled() {
-                    return f64::INFINITY;
+                    return None;
                 }
                 let mut t = base.clone();
                 p.set(&mut t, to(u));
-                evals += 1;
                 progress.tick();
-                match evaluate(&t, reference, opts) {
-                    Ok((c, g)) => {
-                        let j = objective(&c, &opts.weights);
-                        cache.push((u, j, c, g));
-                        j
-                    }
-                    Err(_) => f64::INFINITY,
-                }
+                evaluate(&t, reference, opts).ok().map(|(c, g)| (objective(&c, &opts.weights), c, g))
             };
             let mut n = opts.evaluations_per_parameter.max(3);
             let (mut a, mut b) = (from(lo), from(hi));
@@ -518,9 +516,13 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                 n = refine_evaluations(opts);
             } else if p.multimodal() {
                 // A mode frequency has one local minimum per spectral feature it can sit on:
-                // scan a grid first, then refine between the best point's neighbours.
+                // scan a grid first (its points are independent: evaluated in parallel), then
+                // refine between the best point's neighbours.
                 let grid: Vec<f64> = (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect();
-                let js: Vec<f64> = grid.iter().map(|&u| eval_at(u)).collect();
+                let scanned: Vec<Option<(f64, Comparison, f64)>> = grid.par_iter().map(|&u| evaluate_at(u)).collect();
+                evals += grid.len();
+                let js: Vec<f64> = scanned.iter().map(|r| r.as_ref().map_or(f64::INFINITY, |r| r.0)).collect();
+                cache.extend(grid.iter().zip(scanned).filter_map(|(&u, r)| r.map(|(j, c, g)| (u, j, c, g))));
                 let i = (0..js.len()).min_by(|&x, &y| js[x].total_cmp(&js[y])).unwrap_or(0);
                 if js[i] < j0 {
                     (u0, j0) = (grid[i], js[i]);
@@ -532,6 +534,16 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                     (u0, j0) = (grid[i], js[i]);
                 }
             }
+            let eval_at = |u: f64| {
+                evals += 1;
+                match evaluate_at(u) {
+                    Some((j, c, g)) => {
+                        cache.push((u, j, c, g));
+                        j
+                    }
+                    None => f64::INFINITY,
+                }
+            };
             let (u, j) = golden(eval_at, a, b, n, u0, j0);
             if progress.is_cancelled() {
                 return Err(LoopError::Cancelled);

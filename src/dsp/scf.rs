@@ -250,6 +250,14 @@ impl Grid {
         self.m_hi - self.m_lo + 1
     }
 
+    /// The segment window and the density scaling `1 / (K · fs · Σw²)` of the averaged
+    /// segment products (one-sided Welch convention, both estimators).
+    fn window_and_density_scale(&self, params: &ScfParams, fs_hz: f64) -> (Vec<f64>, f64) {
+        let w = params.window.periodic(self.nperseg);
+        let sum_w2: f64 = w.iter().map(|v| v * v).sum();
+        (w, 1.0 / (self.n_segments as f64 * fs_hz * sum_w2))
+    }
+
     fn d_alpha(&self) -> f64 {
         self.fs_hz / (self.hop as f64 * self.n_alpha_dft as f64)
     }
@@ -596,9 +604,7 @@ pub fn cyclic_periodogram(x: &[f64], fs_hz: f64, params: &ScfParams) -> Result<S
     let nf = g.n_freq;
     let hop = g.hop;
     let l_dft = g.n_alpha_dft;
-    let w = params.window.periodic(nw);
-    let sum_w2: f64 = w.iter().map(|v| v * v).sum();
-    let norm = 1.0 / (g.n_segments as f64 * fs_hz * sum_w2);
+    let (w, norm) = g.window_and_density_scale(params, fs_hz);
     let plan = fft::forward(nw);
     let scratch_len = plan.get_inplace_scratch_len();
     let n_alpha = g.n_alpha();
@@ -728,9 +734,7 @@ pub fn fast_scf(x: &[f64], fs_hz: f64, params: &ScfParams) -> Result<ScfMap, Dsp
     let z = FAST_OVERSAMPLING;
     let nz = z * nw;
     let nh = nz / 2 + 1;
-    let w = params.window.periodic(nw);
-    let sum_w2: f64 = w.iter().map(|v| v * v).sum();
-    let norm = 1.0 / (k_seg as f64 * fs_hz * sum_w2);
+    let (w, norm) = g.window_and_density_scale(params, fs_hz);
     let zero = Complex64::new(0.0, 0.0);
 
     // 1. STFT, row-major [k][i], then transposed to [i][k] for contiguous frame sequences.
@@ -773,6 +777,7 @@ pub fn fast_scf(x: &[f64], fs_hz: f64, params: &ScfParams) -> Result<ScfMap, Dsp
     let d_alpha = g.d_alpha();
     let coarse_hz = 2.0 * fs_hz / nz as f64;
     let w2: Vec<f64> = w.iter().map(|v| v * v).collect();
+    let sum_w2: f64 = w2.iter().sum();
     let n_alpha = g.n_alpha();
     let mut shift = Vec::with_capacity(n_alpha);
     let mut inv_corr = Vec::with_capacity(n_alpha);

@@ -1,7 +1,28 @@
 //! Helpers shared by the integration tests.
-#![allow(dead_code)]
+#![allow(dead_code, unused_macros)]
 
 use std::f64::consts::PI;
+
+/// The drive-end 6205 of the CWRU-like rig the model tests build on (on shaft `motor`, sensed at
+/// its resonator), as a TOML `[[bearing]]` table without a fault; a string literal, so it can
+/// go into `concat!`.
+macro_rules! cwru_de_bearing_toml {
+    () => {
+        r#"[[bearing]]
+name = "de"
+shaft = "motor"
+catalogue = "SKF 6205-2RS JEM"
+radial_clearance_m = 5e-6
+hertz_constant_n_per_m_n = 8.0e9
+pedestal_mass_kg = 5.0
+pedestal_stiffness_n_per_m = 1.5e8
+pedestal_damping_n_s_per_m = 3000.0
+resonator_frequency_hz = 2600.0
+resonator_damping_ratio = 0.04
+resonator_mass_kg = 0.05
+"#
+    };
+}
 
 /// SplitMix64 + Box–Muller: a fixed-seed generator whose numbers the tests' tolerances were
 /// set against (kept separate from `signal::synth` so the test data never changes with it).
