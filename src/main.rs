@@ -86,6 +86,10 @@ enum Command {
         /// Catalogue bearing for line labels (default: from the signal metadata).
         #[arg(long)]
         bearing: Option<String>,
+        /// Fault frequency for the SCF α-slice, Hz (default with --preset: the preset's BPFO,
+        /// BPFI or 2×BSF by its fault location).
+        #[arg(long)]
+        fault_hz: Option<f64>,
         /// Write the full comparison as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -208,7 +212,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Some(Command::Bench(args)) => bench::run(&args),
-        Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, json.as_deref()),
+        Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, json.as_deref()),
         Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, controls, duration_s, seed, json }) => confusion_cmd(&preset, &effects, controls, duration_s, seed, json.as_deref()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
@@ -377,10 +381,14 @@ fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, dur
 }
 
 #[allow(clippy::too_many_arguments)]
-fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>, with: &[String], channel: Option<String>, band_hz: Option<Vec<f64>>, bearing: Option<String>, json: Option<&Path>) -> Result<()> {
-    use twinscope::compare::{self, CompareOptions};
+fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>, with: &[String], channel: Option<String>, band_hz: Option<Vec<f64>>, bearing: Option<String>, fault_hz: Option<f64>, json: Option<&Path>) -> Result<()> {
+    use twinscope::compare::{self, diagnose::fault_frequency_hz, CompareOptions};
     use twinscope::model::{self, EffectKind};
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
+    let mut opts = CompareOptions { fault_frequency_hz: fault_hz, ..Default::default() };
+    if let Some(f) = fault_hz {
+        anyhow::ensure!(f.is_finite() && f > 0.0, "--fault-hz must be a positive frequency in Hz (got {f})");
+    }
     let sim = match (simulated, preset) {
         (Some(p), _) => io::load(p, &io::LoadOptions::default())?,
         (None, Some(name)) => {
@@ -388,11 +396,11 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
             for n in with {
                 m.effects.enable(EffectKind::parse(n).with_context(|| format!("unknown effect `{n}`"))?);
             }
+            opts.fault_frequency_hz = opts.fault_frequency_hz.or_else(|| fault_frequency_hz(&m, &meas));
             model::simulate(&m)?
         }
         (None, None) => anyhow::bail!("give a simulated file or --preset"),
     };
-    let mut opts = CompareOptions::default();
     if let Some(b) = band_hz {
         anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz (got {})", b.len());
         opts.envelope_band_hz = [b[0], b[1]];

@@ -158,3 +158,21 @@ fn simulate_writes_a_signal_that_info_reads_back() {
     let r = run(&["simulate", "--preset", "no_such_rig", "-o", out.to_str().unwrap()]);
     assert_clean_failure(&r, &["no_such_rig"]);
 }
+
+#[test]
+fn compare_with_a_preset_adds_the_scf_slice_at_its_fault_frequency() {
+    let d = tempfile::tempdir().unwrap();
+    let json = d.path().join("cmp.json");
+    let rec = cwru("105_de_inner_007_0hp_12k.mat");
+    let r = run(&["compare", rec.to_str().unwrap(), "--preset", "cwru_6205_inner", "--band-hz", "1800,3000", "--json", json.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    for domain in ["envelope", "psd_db", "scf_alpha_0", "scf_alpha_shaft", "scf_alpha_fault"] {
+        assert!(r.stdout.contains(domain), "{domain} missing:\n{}", r.stdout);
+    }
+    // BPFI of the 6205 at the record's 1797 rpm: 5.4152 × 29.95 Hz = 162.2 Hz.
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let text = v.to_string();
+    assert!(text.contains("α = 162.1") || text.contains("α = 162.2"), "no α = BPFI slice in the JSON");
+    let r = run(&["compare", rec.to_str().unwrap(), "--preset", "cwru_6205_inner", "--fault-hz=-3"]);
+    assert_clean_failure(&r, &["--fault-hz"]);
+}

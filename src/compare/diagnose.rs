@@ -105,6 +105,27 @@ pub fn machine_families(m: &Machine) -> (Vec<CharacteristicFrequency>, Option<f6
     (fams, shaft)
 }
 
+/// The fault frequency of `m`'s first faulty bearing — BPFO, BPFI or 2×BSF by the fault's
+/// location — on the measured signal's speed axis (times measured / model shaft speed, as the
+/// comparison's order normalisation does), for the SCF α-slice at the fault frequency. `None`
+/// when no bearing has a localised fault.
+pub fn fault_frequency_hz(m: &Machine, measured: &Signal) -> Option<f64> {
+    use crate::model::FaultLocation;
+    let speeds = m.shaft_speeds_hz().ok()?;
+    let (i, b) = m.bearings.iter().enumerate().find(|(_, b)| b.fault.is_some())?;
+    let ff = m.bearing_geometry(i).ok()?.fault_frequencies(speeds[m.shaft_index(&b.shaft)?]).ok()?;
+    let f = match b.fault.as_ref()?.location {
+        FaultLocation::Outer => ff.bpfo_hz,
+        FaultLocation::Inner => ff.bpfi_hz,
+        FaultLocation::Ball => 2.0 * ff.bsf_hz,
+    };
+    let speed_ratio = match (measured.meta.shaft_speed_hz, speeds.first()) {
+        (Some(fm), Some(&fs)) if fm > 0.0 && fs > 0.0 => fm / fs,
+        _ => 1.0,
+    };
+    Some(f * speed_ratio)
+}
+
 /// What in the residual map speaks for an effect, in words, with the share it carries.
 fn evidence(k: EffectKind, map: &ResidualMap) -> (String, f64) {
     let env_items = |pred: &dyn Fn(&str) -> bool| -> (f64, Option<String>) {

@@ -320,7 +320,9 @@ impl Workbench {
         let id = replace.unwrap_or_else(|| self.session.next_signal_id());
         self.session.model.simulated_id = Some(id);
         let label = self.session.model.preset.clone();
-        let opts = jobs::compare_options_for(&self.session.chain);
+        let mut opts = jobs::compare_options_for(&self.session.chain);
+        // The SCF slice at the model's fault frequency, on the measurement's speed axis.
+        opts.fault_frequency_hz = meas.as_ref().and_then(|m| crate::compare::diagnose::fault_frequency_hz(&machine, &m.signal));
         self.worker.spawn(format!("simulating {label} ({} s)", machine.duration_s), move |job| {
             let sim = jobs::simulate_machine(id, &machine, &label, job)?;
             job.send(JobOutput::Signal { entry: Box::new(sim.clone()), replace, select: false });

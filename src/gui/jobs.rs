@@ -261,7 +261,9 @@ pub fn demo(ids: [u64; 2], labelling: PeakLabelling, job: &JobHandle) -> Result<
     job.check()?;
     job.set_step("comparing model and measurement");
     job.set_progress(f64::NAN);
-    let cmp = compare_signals(&measured, &simulated, &compare_options_for(&chain))?;
+    let mut opts = compare_options_for(&chain);
+    opts.fault_frequency_hz = crate::model::preset(DEMO_MACHINE).ok().and_then(|m| crate::compare::diagnose::fault_frequency_hz(&m, &measured.signal));
+    let cmp = compare_signals(&measured, &simulated, &opts)?;
     job.send(JobOutput::Comparison(Box::new(cmp)));
     Ok(())
 }
