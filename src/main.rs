@@ -255,6 +255,13 @@ impl Progress for CliProgress {
             eprintln!("twinscope: [{done}/{total}] {} {status}", input.display());
         }
     }
+    fn model_evaluations(&self, input: &str, done: usize, expected: usize) {
+        if let Some(b) = &self.bar {
+            b.set_message(format!("{input}: model loop, evaluation {done}/{expected}"));
+        } else if !self.quiet && (done % 50 == 0 || done == expected) {
+            eprintln!("twinscope: {input}: model loop, evaluation {done}/{expected}");
+        }
+    }
 }
 
 fn run_batch(job_path: &Path, out: Option<&Path>, quiet: bool) -> Result<()> {
@@ -284,6 +291,12 @@ fn run_batch(job_path: &Path, out: Option<&Path>, quiet: bool) -> Result<()> {
                     format!("; top peak {:.2} Hz{label}", p.frequency_hz)
                 });
                 eprintln!("twinscope: {} → {}{}", i.file, o.path, top.unwrap_or_default());
+            }
+            if let Some(l) = &i.model_loop {
+                for r in &l.history {
+                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1}; applied: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.applied.map(|k| k.name()).unwrap_or("-"));
+                }
+                eprintln!("twinscope: {} model loop verdict: {} → {}", i.file, l.verdict, l.history_csv);
             }
         }
     }

@@ -176,3 +176,60 @@ fn compare_with_a_preset_adds_the_scf_slice_at_its_fault_frequency() {
     let r = run(&["compare", rec.to_str().unwrap(), "--preset", "cwru_6205_inner", "--fault-hz=-3"]);
     assert_clean_failure(&r, &["--fault-hz"]);
 }
+
+#[test]
+fn a_batch_job_closes_the_loop_and_keeps_every_round() {
+    // The "measurement" is the CWRU inner-race model with a load zone; the job's model lacks
+    // it. Round 1 must apply load_zone, and the history must show the error falling.
+    let d = tempfile::tempdir().unwrap();
+    let job = d.path().join("loop.toml");
+    std::fs::write(
+        &job,
+        r#"
+[input]
+[[input.simulate]]
+preset = "cwru_6205_inner"
+with = ["load_zone", "noise"]
+duration_s = 1.5
+seed = 3
+
+[chain]
+preset = "welch"
+
+[model_loop]
+preset = "cwru_6205_inner"
+with = ["noise"]
+rounds = 2
+candidates = ["load_zone", "slip"]
+fit_duration_s = 0.6
+band_hz = [1800.0, 3000.0]
+
+[output]
+dir = "out"
+"#,
+    )
+    .unwrap();
+    let r = run(&["--batch", job.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path().join("out/summary.json")).unwrap()).unwrap();
+    let l = &summary["inputs"][0]["model_loop"];
+    let history = l["history"].as_array().expect("a loop history");
+    assert_eq!(history[0]["applied"], "load_zone", "round 1: {}", history[0]["verdict"]);
+    let nrmse: Vec<f64> = history.iter().map(|r| r["envelope_nrmse"].as_f64().unwrap()).collect();
+    assert!(nrmse.len() == 2 && nrmse[1] < nrmse[0], "envelope NRMSE per round {nrmse:?}");
+    let csv = std::fs::read_to_string(l["history_csv"].as_str().unwrap()).unwrap();
+    assert!(csv.starts_with("round,effects_on,envelope_nrmse_percent,objective,applied,verdict"), "{csv}");
+    assert_eq!(csv.lines().count(), 1 + history.len());
+    let final_machine = std::fs::read_to_string(l["final_machine"].as_str().unwrap()).unwrap();
+    assert!(final_machine.contains("[effects.load_zone]"), "{final_machine}");
+    assert!(r.stderr.contains("model loop round 1"), "{}", r.stderr);
+
+    // Bad loop settings fail before any work, naming the key.
+    for (bad, needle) in [("[model_loop]\npreset = \"cwru_6205_inner\"", "[model_loop]\npreset = \"no_such_rig\""), ("candidates = [\"load_zone\", \"slip\"]", "candidates = [\"warp_drive\"]"), ("rounds = 2", "rounds = 0")] {
+        let text = std::fs::read_to_string(&job).unwrap().replacen(bad, needle, 1);
+        let j2 = d.path().join("bad.toml");
+        std::fs::write(&j2, text).unwrap();
+        let r = run(&["--batch", j2.to_str().unwrap()]);
+        assert_clean_failure(&r, &["model_loop"]);
+    }
+}

@@ -24,6 +24,10 @@ pub struct Job {
     /// What to write.
     #[serde(default)]
     pub output: OutputSpec,
+    /// Close the loop on every input: compare with a model, find the missing effect, apply it,
+    /// repeat (`[model_loop]`, optional).
+    #[serde(default)]
+    pub model_loop: Option<LoopSpec>,
     /// The job file (set when read from disk); relative paths are taken from its directory.
     #[serde(skip)]
     pub path: Option<PathBuf>,
@@ -112,38 +116,124 @@ impl InputSource {
     }
 }
 
+/// A machine from a TOML file (relative to `base_dir`) or a preset, with effects switched on
+/// and off; `at` prefixes every message with the job key at fault.
+fn build_machine(machine: &Option<String>, preset: &Option<String>, with: &[String], without: &[String], base_dir: &Path, at: &dyn Fn(String) -> String) -> Result<crate::model::Machine, String> {
+    use crate::model::{self, EffectKind, Machine};
+    let mut m = match (machine, preset) {
+        (Some(f), None) => {
+            let path = base_dir.join(f);
+            let text = std::fs::read_to_string(&path).map_err(|e| at(format!("`machine` {}: {e}", path.display())))?;
+            Machine::from_toml(&text, &path.display().to_string()).map_err(|e| at(e.to_string()))?
+        }
+        (None, Some(p)) => model::preset(p).map_err(|e| at(e.to_string()))?,
+        _ => return Err(at("give exactly one of `machine` and `preset`".into())),
+    };
+    for (list, on) in [(with, true), (without, false)] {
+        for name in list.iter() {
+            let k = EffectKind::parse(name).ok_or_else(|| at(format!("unknown effect `{name}`")))?;
+            if on {
+                m.effects.enable(k)
+            } else {
+                m.effects.disable(k)
+            }
+        }
+    }
+    Ok(m)
+}
+
 impl SimulateSpec {
     /// The machine with the overrides applied.
     pub fn machine(&self, base_dir: &Path, index: usize) -> Result<crate::model::Machine, String> {
-        use crate::model::{self, EffectKind, Machine};
         let at = |m: String| format!("`input.simulate[{index}]`: {m}");
-        let mut m = match (&self.machine, &self.preset) {
-            (Some(f), None) => {
-                let path = base_dir.join(f);
-                let text = std::fs::read_to_string(&path).map_err(|e| at(format!("`machine` {}: {e}", path.display())))?;
-                Machine::from_toml(&text, &path.display().to_string()).map_err(|e| at(e.to_string()))?
-            }
-            (None, Some(p)) => model::preset(p).map_err(|e| at(e.to_string()))?,
-            _ => return Err(at("give exactly one of `machine` and `preset`".into())),
-        };
+        let mut m = build_machine(&self.machine, &self.preset, &self.with, &self.without, base_dir, &at)?;
         if let Some(d) = self.duration_s {
             m.duration_s = d;
         }
         if let Some(s) = self.seed {
             m.seed = s;
         }
-        for (list, on) in [(&self.with, true), (&self.without, false)] {
-            for name in list.iter() {
-                let k = EffectKind::parse(name).ok_or_else(|| at(format!("unknown effect `{name}`")))?;
-                if on {
-                    m.effects.enable(k)
-                } else {
-                    m.effects.disable(k)
-                }
-            }
-        }
         m.validate().map_err(|e| at(e.to_string()))?;
         Ok(m)
+    }
+}
+
+/// `[model_loop]`: every input is compared with a machine model, calibrated, searched for the
+/// missing effect, the best effect applied, and again, for up to `rounds` rounds or until
+/// nothing significant is missing (`compare::run_loop`); every round's metrics are kept.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoopSpec {
+    /// Machine description (TOML), relative to the job file.
+    #[serde(default)]
+    pub machine: Option<String>,
+    /// A bundled machine preset (see `twinscope presets`).
+    #[serde(default)]
+    pub preset: Option<String>,
+    /// Effects on at the start (e.g. `noise`: every measurement is noisy).
+    #[serde(default)]
+    pub with: Vec<String>,
+    /// Effects off at the start.
+    #[serde(default)]
+    pub without: Vec<String>,
+    /// Rounds, 1–20. Default 3.
+    #[serde(default = "LoopSpec::default_rounds")]
+    pub rounds: usize,
+    /// Demodulation band of the envelope comparison, Hz. Default: the chain's first bandpass
+    /// stage, else 900–1800 Hz.
+    #[serde(default)]
+    pub band_hz: Option<[f64; 2]>,
+    /// Effects the search may try. Default: every applicable effect the model lacks.
+    #[serde(default)]
+    pub candidates: Vec<String>,
+    /// Model time simulated per evaluation, s (≥ 0.2). Default 1.5.
+    #[serde(default = "LoopSpec::default_fit_duration_s")]
+    pub fit_duration_s: f64,
+}
+
+impl LoopSpec {
+    fn default_rounds() -> usize {
+        3
+    }
+
+    fn default_fit_duration_s() -> f64 {
+        crate::compare::LoopOptions::default().fit_duration_s
+    }
+
+    /// The starting model.
+    pub fn machine(&self, base_dir: &Path) -> Result<crate::model::Machine, String> {
+        let at = |m: String| format!("`model_loop`: {m}");
+        let m = build_machine(&self.machine, &self.preset, &self.with, &self.without, base_dir, &at)?;
+        m.validate().map_err(|e| at(e.to_string()))?;
+        Ok(m)
+    }
+
+    /// The loop options; the demodulation band defaults to the chain's first bandpass stage.
+    pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
+        use crate::model::EffectKind;
+        if !(1..=20).contains(&self.rounds) {
+            return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
+        }
+        if !(self.fit_duration_s.is_finite() && self.fit_duration_s >= 0.2) {
+            return Err(format!("`model_loop.fit_duration_s` = {}: must be at least 0.2 s", self.fit_duration_s));
+        }
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, ..Default::default() };
+        let chain_band = chain.stages.iter().find_map(|s| match &s.op {
+            chain::Op::Bandpass(b) => Some(b.pass_band_hz),
+            _ => None,
+        });
+        if let Some([lo, hi]) = self.band_hz.or(chain_band) {
+            if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo < hi) {
+                return Err(format!("`model_loop.band_hz` = [{lo}, {hi}]: must be two frequencies in Hz, 0 < low < high"));
+            }
+            o.compare.envelope_band_hz = [lo, hi];
+        }
+        o.candidates = self
+            .candidates
+            .iter()
+            .map(|n| EffectKind::parse(n).ok_or_else(|| format!("`model_loop.candidates`: unknown effect `{n}` (see `twinscope presets` and README \"The physics model\")")))
+            .collect::<Result<_, _>>()?;
+        Ok(o)
     }
 }
 
@@ -261,6 +351,13 @@ impl Job {
         }
         if !(self.output.peak_min_separation_hz.is_finite() && self.output.peak_min_separation_hz >= 0.0) {
             return Err(format!("`output.peak_min_separation_hz` = {}: must be ≥ 0", self.output.peak_min_separation_hz));
+        }
+        if let Some(l) = &self.model_loop {
+            l.machine(&self.base_dir())?;
+            // The band may come from the chain; an unreadable chain is reported by `chain()`.
+            if let Ok(c) = self.chain() {
+                l.options(&c)?;
+            }
         }
         Ok(())
     }

@@ -9,8 +9,8 @@
 mod job;
 mod output;
 
-pub use job::{ChainSpec, InputSource, InputSpec, Job, MachineSpec, OutputSpec, SimulateSpec};
-pub use output::{InputSummary, JobSummary, PeakReport};
+pub use job::{ChainSpec, InputSource, InputSpec, Job, LoopSpec, MachineSpec, OutputSpec, SimulateSpec};
+pub use output::{InputSummary, JobSummary, LoopReport, PeakReport};
 
 use crate::chain::{ChainContext, ChainError};
 use crate::signal::io::{self, IoError};
@@ -34,6 +34,9 @@ pub enum BatchError {
     /// A simulation failed.
     #[error("{input}: {message}")]
     Simulate { input: String, message: String },
+    /// The model loop failed on an input.
+    #[error("{input}: model loop: {message}")]
+    Loop { input: String, message: String },
     /// Writing an output failed.
     #[error("writing {path}: {message}")]
     Write { path: String, message: String },
@@ -48,6 +51,9 @@ pub trait Progress: Sync {
     fn start(&self, total_inputs: usize);
     /// Called when an input finishes (ok or not).
     fn input_done(&self, done: usize, total: usize, input: &Path, ok: bool);
+    /// Called after each model evaluation of an input's `[model_loop]` (`done` of `expected`
+    /// in the current round).
+    fn model_evaluations(&self, _input: &str, _done: usize, _expected: usize) {}
 }
 
 /// A progress sink that shows nothing.
@@ -78,7 +84,7 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
         .par_iter()
         .zip(stems.par_iter())
         .map(|(input, stem)| {
-            let r = run_one(job, &chain, input, &out_dir.join(stem));
+            let r = run_one(job, &chain, input, &out_dir.join(stem), progress);
             let d = done.fetch_add(1, Ordering::SeqCst) + 1;
             progress.input_done(d, inputs.len(), Path::new(&input.display_name(job)), r.is_ok());
             r
@@ -107,7 +113,7 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
     Ok(summary)
 }
 
-fn run_one(job: &Job, chain: &crate::chain::Chain, input: &InputSource, dir: &Path) -> Result<InputSummary, BatchError> {
+fn run_one(job: &Job, chain: &crate::chain::Chain, input: &InputSource, dir: &Path, progress: &dyn Progress) -> Result<InputSummary, BatchError> {
     let signal = match input {
         InputSource::File(p) => io::load(p, &job.input.load_options())?,
         InputSource::Simulated(i) => {
@@ -133,5 +139,19 @@ fn run_one(job: &Job, chain: &crate::chain::Chain, input: &InputSource, dir: &Pa
     };
     let result = chain.run(&signal, &ctx, |_, _, _| {}).map_err(|source| BatchError::Chain { input: input.display_name(job), source })?;
     std::fs::create_dir_all(dir).map_err(|e| BatchError::Write { path: dir.display().to_string(), message: e.to_string() })?;
-    output::write_input(job, &signal, &ctx, &result, dir)
+    let mut summary = output::write_input(job, &signal, &ctx, &result, dir)?;
+    if let Some(spec) = &job.model_loop {
+        let name = input.display_name(job);
+        let lerr = |message: String| BatchError::Loop { input: name.clone(), message };
+        let m = spec.machine(&job.base()).map_err(lerr)?;
+        let opts = spec.options(chain).map_err(lerr)?;
+        let (final_m, history, last) = crate::compare::run_loop(&m, &signal, spec.rounds, &opts, &|done, expected| {
+            progress.model_evaluations(&name, done, expected);
+            true
+        })
+        .map_err(|e| lerr(e.to_string()))?;
+        summary.model_loop = Some(output::write_loop(dir, &history, &last, &final_m)?);
+        output::write_json(&dir.join("summary.json"), &summary)?;
+    }
+    Ok(summary)
 }

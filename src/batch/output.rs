@@ -59,6 +59,53 @@ pub struct InputSummary {
     pub stages: Vec<BTreeMap<String, serde_json::Value>>,
     /// CSV outputs with their peaks.
     pub outputs: Vec<OutputReport>,
+    /// What `[model_loop]` did on this input.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_loop: Option<LoopReport>,
+}
+
+/// What `[model_loop]` did on one input: the error of every round, so it is seen falling.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct LoopReport {
+    /// Every round: effects on at its start, metrics of the calibrated model, the verdict and
+    /// the effect applied.
+    pub history: Vec<crate::compare::Round>,
+    /// Effects applied, in order.
+    pub applied: Vec<String>,
+    /// The last round's verdict.
+    pub verdict: String,
+    /// `model_loop.json`: the history, the last diagnosis (ranking, fitted parameters, floor,
+    /// residual map) and the final machine.
+    pub json: String,
+    /// `model_loop_history.csv`: one row per round.
+    pub history_csv: String,
+    /// `model_loop_final_machine.toml`: the machine after the last applied effect.
+    pub final_machine: String,
+}
+
+/// Writes the loop's outputs into `dir`.
+pub(super) fn write_loop(dir: &Path, history: &[crate::compare::Round], last: &crate::compare::Diagnosis, final_machine: &crate::model::Machine) -> Result<LoopReport, BatchError> {
+    let json = dir.join("model_loop.json");
+    write_json(&json, &serde_json::json!({ "history": history, "diagnosis": last, "final_machine": final_machine }))?;
+    let csv_path = dir.join("model_loop_history.csv");
+    let werr = |m: String| BatchError::Write { path: csv_path.display().to_string(), message: m };
+    let mut w = csv::Writer::from_path(&csv_path).map_err(|e| werr(e.to_string()))?;
+    w.write_record(["round", "effects_on", "envelope_nrmse_percent", "objective", "applied", "verdict"]).map_err(|e| werr(e.to_string()))?;
+    for r in history {
+        let on = r.effects_on.iter().map(|k| k.name()).collect::<Vec<_>>().join(" ");
+        w.write_record([r.round.to_string(), on, format!("{:.4}", r.envelope_nrmse), format!("{:.4}", r.objective), r.applied.map(|k| k.name()).unwrap_or("").to_string(), r.verdict.clone()]).map_err(|e| werr(e.to_string()))?;
+    }
+    w.flush().map_err(|e| werr(e.to_string()))?;
+    let toml_path = dir.join("model_loop_final_machine.toml");
+    std::fs::write(&toml_path, final_machine.to_toml()).map_err(|e| BatchError::Write { path: toml_path.display().to_string(), message: e.to_string() })?;
+    Ok(LoopReport {
+        history: history.to_vec(),
+        applied: history.iter().filter_map(|r| r.applied.map(|k| k.name().to_string())).collect(),
+        verdict: last.verdict.clone(),
+        json: json.display().to_string(),
+        history_csv: csv_path.display().to_string(),
+        final_machine: toml_path.display().to_string(),
+    })
 }
 
 /// The summary of a whole job (`summary.json`).
@@ -210,6 +257,7 @@ pub(super) fn write_input(job: &Job, signal: &Signal, ctx: &ChainContext, result
         fault_frequencies: ff,
         stages,
         outputs,
+        model_loop: None,
     };
     write_json(&dir.join("summary.json"), &summary)?;
     Ok(summary)
