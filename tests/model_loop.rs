@@ -166,3 +166,18 @@ fn a_hidden_casing_mode_is_found_by_recalibrating_with_it() {
     let res_fit = t.extra_parameters.iter().find(|(p, _)| *p == Param::ResonanceHz).map(|x| x.1).expect("the trial re-fits the resonance");
     assert!((res_fit - res(&truth)).abs() < (res(&cal_m) - res(&truth)).abs(), "resonance: true {:.0}, calibrated {:.0}, trial {res_fit:.0} Hz", res(&truth), res(&cal_m));
 }
+
+#[test]
+fn a_hidden_unbalance_is_not_taken_for_misalignment() {
+    // Seed 1307 of the earlier bearing-base table: with the misalignment's 1× force fixed, its
+    // trial fitted the 2× to nothing and passed for the unbalance on the fixed 1× alone. With
+    // the 1× scaled with the 2×, the unbalance trial must win.
+    let base = model::preset("mfs_inner").unwrap();
+    let (mut truth, model_m, true_param, snr) = hidden::make_case(&base, Some(EffectKind::Unbalance), 1307);
+    truth.duration_s = 2.0;
+    let measured = model::simulate(&truth).unwrap();
+    let opts = LoopOptions { candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment], ..Default::default() };
+    let (_, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
+    eprintln!("true {true_param:?}, SNR {snr:.1} dB; {}", d.verdict);
+    assert_eq!(d.best, Some(EffectKind::Unbalance), "{}", d.verdict);
+}
