@@ -82,3 +82,18 @@ fn residual_map_puts_missing_sidebands_on_their_label() {
     assert!(top.family == "BPFI ± shaft" || top.family == "shaft harmonics", "{top:?}");
     assert_eq!(top.note, "in the measurement, absent from the model");
 }
+
+#[test]
+fn the_fault_slice_is_at_the_fault_frequency_and_a_bad_one_is_refused() {
+    let a = bearing_signal(12000.0, 2.0, 0.5, 1);
+    let bpfi = lookup_bearing("6205").unwrap().fault_frequencies(29.95).unwrap().bpfi_hz;
+    let c = compare(&a, &a, &CompareOptions { fault_frequency_hz: Some(bpfi), ..opts() }).unwrap();
+    let d = c.domains.iter().find(|d| d.domain == "scf_alpha_fault").expect("an α = fault slice");
+    assert!(d.quantity.contains(&format!("{bpfi:.2}")), "{}", d.quantity);
+    for bad in [-3.0, f64::NAN, 6000.0] {
+        match compare(&a, &a, &CompareOptions { fault_frequency_hz: Some(bad), ..opts() }) {
+            Err(CompareError::Parameter { name: "fault_frequency_hz", .. }) => {}
+            other => panic!("fault frequency {bad}: {:?}", other.map(|c| c.domains.len())),
+        }
+    }
+}

@@ -352,13 +352,6 @@ impl Job {
         if !(self.output.peak_min_separation_hz.is_finite() && self.output.peak_min_separation_hz >= 0.0) {
             return Err(format!("`output.peak_min_separation_hz` = {}: must be ≥ 0", self.output.peak_min_separation_hz));
         }
-        if let Some(l) = &self.model_loop {
-            l.machine(&self.base_dir())?;
-            // The band may come from the chain; an unreadable chain is reported by `chain()`.
-            if let Ok(c) = self.chain() {
-                l.options(&c)?;
-            }
-        }
         Ok(())
     }
 

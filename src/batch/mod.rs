@@ -74,6 +74,15 @@ pub fn run_job_file(path: &Path, progress: &dyn Progress) -> Result<JobSummary, 
 /// Runs a parsed job.
 pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchError> {
     let chain = job.chain()?;
+    // The loop's machine and options, resolved once for every input (bad settings fail here,
+    // before any output is written).
+    let model_loop = match &job.model_loop {
+        Some(spec) => {
+            let bad = |message: String| BatchError::Job { path: job.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "job".into()), message };
+            Some((spec.rounds, spec.machine(&job.base()).map_err(bad)?, spec.options(&chain).map_err(bad)?))
+        }
+        None => None,
+    };
     let inputs = job.sources()?;
     let out_dir = job.output_dir();
     std::fs::create_dir_all(&out_dir).map_err(|e| BatchError::Write { path: out_dir.display().to_string(), message: e.to_string() })?;
@@ -84,7 +93,7 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
         .par_iter()
         .zip(stems.par_iter())
         .map(|(input, stem)| {
-            let r = run_one(job, &chain, input, &out_dir.join(stem), progress);
+            let r = run_one(job, &chain, model_loop.as_ref(), input, &out_dir.join(stem), progress);
             let d = done.fetch_add(1, Ordering::SeqCst) + 1;
             progress.input_done(d, inputs.len(), Path::new(&input.display_name(job)), r.is_ok());
             r
@@ -113,7 +122,10 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
     Ok(summary)
 }
 
-fn run_one(job: &Job, chain: &crate::chain::Chain, input: &InputSource, dir: &Path, progress: &dyn Progress) -> Result<InputSummary, BatchError> {
+/// A resolved `[model_loop]`: rounds, starting machine, options.
+type ModelLoop = (usize, crate::model::Machine, crate::compare::LoopOptions);
+
+fn run_one(job: &Job, chain: &crate::chain::Chain, model_loop: Option<&ModelLoop>, input: &InputSource, dir: &Path, progress: &dyn Progress) -> Result<InputSummary, BatchError> {
     let signal = match input {
         InputSource::File(p) => io::load(p, &job.input.load_options())?,
         InputSource::Simulated(i) => {
@@ -140,18 +152,15 @@ fn run_one(job: &Job, chain: &crate::chain::Chain, input: &InputSource, dir: &Pa
     let result = chain.run(&signal, &ctx, |_, _, _| {}).map_err(|source| BatchError::Chain { input: input.display_name(job), source })?;
     std::fs::create_dir_all(dir).map_err(|e| BatchError::Write { path: dir.display().to_string(), message: e.to_string() })?;
     let mut summary = output::write_input(job, &signal, &ctx, &result, dir)?;
-    if let Some(spec) = &job.model_loop {
+    if let Some((rounds, m, opts)) = model_loop {
         let name = input.display_name(job);
-        let lerr = |message: String| BatchError::Loop { input: name.clone(), message };
-        let m = spec.machine(&job.base()).map_err(lerr)?;
-        let opts = spec.options(chain).map_err(lerr)?;
-        let (final_m, history, last) = crate::compare::run_loop(&m, &signal, spec.rounds, &opts, &|done, expected| {
+        let (final_m, history, last) = crate::compare::run_loop(m, &signal, *rounds, opts, &|done, expected| {
             progress.model_evaluations(&name, done, expected);
             true
         })
-        .map_err(|e| lerr(e.to_string()))?;
+        .map_err(|e| BatchError::Loop { input: name.clone(), message: e.to_string() })?;
         summary.model_loop = Some(output::write_loop(dir, &history, &last, &final_m)?);
-        output::write_json(&dir.join("summary.json"), &summary)?;
     }
+    output::write_json(&dir.join("summary.json"), &summary)?;
     Ok(summary)
 }

@@ -195,6 +195,8 @@ fn quantity_name(q: &str, unit: &str) -> String {
     if unit.is_empty() { q } else { format!("{q} [{unit}]") }
 }
 
+/// Writes the requested stage outputs of one input as CSV and returns its summary; the caller
+/// writes that as the input's `summary.json` once the model loop, if any, has added to it.
 pub(super) fn write_input(job: &Job, signal: &Signal, ctx: &ChainContext, result: &ChainResult, dir: &Path) -> Result<InputSummary, BatchError> {
     let ff = ctx.fault_frequencies();
     let families: Vec<CharacteristicFrequency> = match (&ff, ctx.shaft_speed_hz) {
@@ -259,6 +261,5 @@ pub(super) fn write_input(job: &Job, signal: &Signal, ctx: &ChainContext, result
         outputs,
         model_loop: None,
     };
-    write_json(&dir.join("summary.json"), &summary)?;
     Ok(summary)
 }

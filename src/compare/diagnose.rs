@@ -114,11 +114,11 @@ pub fn fault_frequency_hz(m: &Machine, measured: &Signal) -> Option<f64> {
     let speeds = m.shaft_speeds_hz().ok()?;
     let (i, b) = m.bearings.iter().enumerate().find(|(_, b)| b.fault.is_some())?;
     let ff = m.bearing_geometry(i).ok()?.fault_frequencies(speeds[m.shaft_index(&b.shaft)?]).ok()?;
-    let f = match b.fault.as_ref()?.location {
-        FaultLocation::Outer => ff.bpfo_hz,
-        FaultLocation::Inner => ff.bpfi_hz,
-        FaultLocation::Ball => 2.0 * ff.bsf_hz,
-    };
+    let f = ff.by_name(match b.fault.as_ref()?.location {
+        FaultLocation::Outer => "outer",
+        FaultLocation::Inner => "inner",
+        FaultLocation::Ball => "ball",
+    })?;
     let speed_ratio = match (measured.meta.shaft_speed_hz, speeds.first()) {
         (Some(fm), Some(&fs)) if fm > 0.0 && fs > 0.0 => fm / fs,
         _ => 1.0,

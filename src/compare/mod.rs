@@ -251,6 +251,11 @@ struct MeasuredDomains {
 impl Reference {
     /// Prepares the measured side (designs the envelope filter).
     pub fn new(measured: &Signal, opts: &CompareOptions) -> Result<Self, CompareError> {
+        if let Some(f) = opts.fault_frequency_hz {
+            if !(f.is_finite() && f > 0.0 && f < measured.fs_hz / 2.0) {
+                return Err(CompareError::Parameter { name: "fault_frequency_hz", reason: format!("{f} Hz: must be a frequency between 0 and the Nyquist frequency ({} Hz)", measured.fs_hz / 2.0) });
+            }
+        }
         let taps = envelope_filter(measured.fs_hz, opts)?;
         Ok(Self { measured: measured.clone(), opts: opts.clone(), taps, cache: std::sync::Mutex::new(Vec::new()) })
     }
