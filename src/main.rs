@@ -138,6 +138,15 @@ enum Command {
         /// Effects to hide (default: every applicable effect the preset lacks).
         #[arg(long = "effect")]
         effects: Vec<String>,
+        /// Hide several effects together, e.g. `--hide load_zone+unbalance` (repeatable). Each
+        /// such case runs the loop (`--rounds`): it must apply every hidden effect, one per
+        /// round, and then answer "nothing significant is missing". With `--hide` and no
+        /// `--effect`, no single-effect cases run.
+        #[arg(long = "hide", value_name = "A+B")]
+        hide: Vec<String>,
+        /// Rounds of the loop for `--hide` cases (default: the number hidden + 1).
+        #[arg(long)]
+        rounds: Option<usize>,
         /// Control cases with nothing hidden.
         #[arg(long, default_value_t = 2)]
         controls: usize,
@@ -214,7 +223,7 @@ fn run(cli: Cli) -> Result<()> {
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, json.as_deref()),
         Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
-        Some(Command::Confusion { preset, effects, controls, duration_s, seed, json }) => confusion_cmd(&preset, &effects, controls, duration_s, seed, json.as_deref()),
+        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, json }) => confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, json.as_deref()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => open_workbench(cli.view, cli.open, !cli.no_demo, cli.find_missing_effect, cli.export_png),
     }
@@ -294,7 +303,7 @@ fn run_batch(job_path: &Path, out: Option<&Path>, quiet: bool) -> Result<()> {
             }
             if let Some(l) = &i.model_loop {
                 for r in &l.history {
-                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1}; applied: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.applied.map(|k| k.name()).unwrap_or("-"));
+                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}); applied: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.applied.map(|k| k.name()).unwrap_or("-"));
                 }
                 eprintln!("twinscope: {} model loop verdict: {} → {}", i.file, l.verdict, l.history_csv);
             }
@@ -510,7 +519,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     if history.len() > 1 || rounds > 1 {
         println!("\nhistory:");
         for r in &history {
-            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1}, applied: {}", r.round, r.envelope_nrmse, r.objective, r.applied.map(|k| k.name()).unwrap_or("-"));
+            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}), applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.applied.map(|k| k.name()).unwrap_or("-"));
         }
     }
     if let Some(p) = json {
@@ -525,21 +534,52 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     Ok(())
 }
 
-fn confusion_cmd(preset: &str, effects: &[String], controls: usize, duration_s: f64, seed: u64, json: Option<&Path>) -> Result<()> {
+#[allow(clippy::too_many_arguments)]
+fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, json: Option<&Path>) -> Result<()> {
     use twinscope::compare::{hidden, LoopOptions};
     use twinscope::model::{self, EffectKind, Effects};
     let base = model::preset(preset)?;
-    let kinds: Vec<EffectKind> = if effects.is_empty() {
+    let parse = |n: &str| EffectKind::parse(n.trim()).with_context(|| format!("unknown effect `{}` (known: {})", n.trim(), EffectKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")));
+    let kinds: Vec<EffectKind> = if effects.is_empty() && hide.is_empty() {
         EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, &base)).collect()
     } else {
-        effects.iter().map(|n| EffectKind::parse(n).with_context(|| format!("unknown effect `{n}`"))).collect::<Result<_>>()?
+        effects.iter().map(|n| parse(n)).collect::<Result<_>>()?
     };
+    let groups: Vec<Vec<EffectKind>> = hide
+        .iter()
+        .map(|g| {
+            let ks = g.split('+').map(parse).collect::<Result<Vec<_>>>().with_context(|| format!("--hide {g}"))?;
+            for (i, k) in ks.iter().enumerate() {
+                if ks[..i].contains(k) {
+                    anyhow::bail!("--hide {g}: `{}` is named twice", k.name());
+                }
+                if !Effects::applicable(*k, &base) {
+                    anyhow::bail!("--hide {g}: `{}` does not apply to preset {preset}", k.name());
+                }
+            }
+            Ok(ks)
+        })
+        .collect::<Result<_>>()?;
+    if rounds == Some(0) {
+        anyhow::bail!("--rounds must be at least 1");
+    }
     let opts = LoopOptions::default();
     let mut cases: Vec<Option<EffectKind>> = kinds.iter().map(|k| Some(*k)).collect();
     cases.extend(std::iter::repeat_n(None, controls));
     let mut results = Vec::new();
-    println!("| hidden | true parameter | SNR dB | ranked first | rank of hidden | envelope NRMSE before → after (%) | s |");
-    println!("|---|---|---:|---|---:|---|---:|");
+    let mut multi = Vec::new();
+    let write_json = |results: &Vec<hidden::CaseResult>, multi: &Vec<hidden::MultiCaseResult>| -> Result<()> {
+        if let Some(p) = json {
+            // Written after every case, so a long run can be read while it goes on.
+            let v = if multi.is_empty() { serde_json::to_value(results)? } else { serde_json::json!({ "single": results, "multi": multi }) };
+            std::fs::write(p, serde_json::to_string_pretty(&v)?)?;
+        }
+        Ok(())
+    };
+    if !cases.is_empty() {
+        println!("| hidden | true parameter | SNR dB | ranked first | rank of hidden | envelope NRMSE before → after (%) | s |");
+        println!("|---|---|---:|---|---:|---|---:|");
+    }
     for (i, h) in cases.iter().enumerate() {
         let r = hidden::run_case(&base, *h, seed + i as u64, duration_s, &opts)?;
         let tp = r.true_parameter.map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).unwrap_or_else(|| "-".into());
@@ -555,13 +595,37 @@ fn confusion_cmd(preset: &str, effects: &[String], controls: usize, duration_s: 
             r.seconds
         );
         results.push(r);
-        if let Some(p) = json {
-            // Written after every case, so a long run can be read while it goes on.
-            std::fs::write(p, serde_json::to_string_pretty(&results)?)?;
-        }
+        write_json(&results, &multi)?;
     }
-    let hits = results.iter().filter(|r| r.hidden.is_some() && r.chosen == r.hidden).count();
-    let ok_controls = results.iter().filter(|r| r.hidden.is_none() && r.chosen.is_none()).count();
-    println!("\nhidden effect ranked first and chosen: {hits}/{}; controls answered nothing significant: {ok_controls}/{controls}", kinds.len());
+    if !cases.is_empty() {
+        let hits = results.iter().filter(|r| r.hidden.is_some() && r.chosen == r.hidden).count();
+        let ok_controls = results.iter().filter(|r| r.hidden.is_none() && r.chosen.is_none()).count();
+        println!("\nhidden effect ranked first and chosen: {hits}/{}; controls answered nothing significant: {ok_controls}/{controls}", kinds.len());
+    }
+    if groups.is_empty() {
+        return Ok(());
+    }
+    println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims |");
+    println!("|---|---|---:|---|---|---|");
+    for (j, g) in groups.iter().enumerate() {
+        let r = hidden::run_multi_case(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 1), &opts)?;
+        let names = |ks: &[EffectKind]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ");
+        let tp = r.true_parameters.iter().map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).collect::<Vec<_>>().join(", ");
+        let steps = r.history.iter().map(|h| format!("{:.1} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.applied.map(|k| k.name()).unwrap_or("nothing significant"))).collect::<Vec<_>>().join("; ");
+        println!(
+            "| {} | {} | {:.1} | {} | {} | {} |",
+            names(&r.hidden),
+            if tp.is_empty() { "-".into() } else { tp },
+            r.snr_db,
+            steps,
+            if r.found_all { "yes" } else { "no" },
+            if r.false_claims.is_empty() { "none".into() } else { names(&r.false_claims) }
+        );
+        multi.push(r);
+        write_json(&results, &multi)?;
+    }
+    let all = multi.iter().filter(|r| r.found_all).count();
+    let clean = multi.iter().filter(|r| r.false_claims.is_empty()).count();
+    println!("\nevery hidden effect found: {all}/{}; cases without a false claim: {clean}/{}", multi.len(), multi.len());
     Ok(())
 }

@@ -181,3 +181,45 @@ fn a_hidden_unbalance_is_not_taken_for_misalignment() {
     eprintln!("true {true_param:?}, SNR {snr:.1} dB; {}", d.verdict);
     assert_eq!(d.best, Some(EffectKind::Unbalance), "{}", d.verdict);
 }
+
+#[test]
+fn two_hidden_effects_draw_the_single_case_first_and_are_both_hidden() {
+    // Hiding two effects: both off in the model, both on in the measurement, and the first
+    // one's parameter (and the perturbed baseline) drawn exactly as in the single-effect case,
+    // so the single-effect tables stay reproducible.
+    let base = model::preset("mfs_inner").unwrap();
+    let (t1, m1, p1, _) = hidden::make_case(&base, Some(EffectKind::LoadZone), 31);
+    let (t2, m2, p2, snr2) = hidden::make_case_hiding(&base, &[EffectKind::LoadZone, EffectKind::Unbalance], 31);
+    for k in [EffectKind::LoadZone, EffectKind::Unbalance] {
+        assert!(t2.effects.is_on(k) && !m2.effects.is_on(k), "{}", k.name());
+    }
+    assert_eq!(p2.len(), 2);
+    assert_eq!(Some(p2[0]), p1);
+    assert_eq!(p2[1].0, Param::UnbalanceKgM);
+    assert_eq!(Param::UnbalanceKgM.get(&t2), Some(p2[1].1));
+    assert_eq!(Param::ResonanceHz.get(&t1), Param::ResonanceHz.get(&t2));
+    assert_eq!(m1, m2, "the base has no unbalance: both models are the base without the hidden effects");
+    assert!((0.0..=20.0).contains(&snr2) && t2.effects.is_on(EffectKind::Noise) && m2.effects.is_on(EffectKind::Noise));
+}
+
+/// A case with a clearly visible load zone (187 N) and unbalance (7.8e-4 kg·m) at 15 dB SNR.
+const TWO_HIDDEN_SEED: u64 = 4;
+
+#[test]
+fn two_hidden_effects_are_found_one_per_round_and_then_nothing_is_missing() {
+    // The "measurement" hides a load zone and an unbalance. Round 1 must apply one of them,
+    // round 2 the other, and round 3 answer "nothing significant is missing"; the envelope
+    // NRMSE falls round by round. Candidates are limited to keep the test short, with
+    // misalignment and slip as wrong answers on offer.
+    let base = model::preset("mfs_inner").unwrap();
+    let hide = [EffectKind::LoadZone, EffectKind::Unbalance];
+    let opts = LoopOptions { fit_duration_s: 1.0, evaluations_per_parameter: 7, sweeps: 1, candidates: vec![EffectKind::LoadZone, EffectKind::Unbalance, EffectKind::Misalignment, EffectKind::Slip], ..Default::default() };
+    let r = hidden::run_multi_case(&base, &hide, TWO_HIDDEN_SEED, 2.0, 3, &opts).unwrap();
+    let steps: Vec<_> = r.history.iter().map(|h| (h.envelope_nrmse, h.applied, h.verdict.clone())).collect();
+    eprintln!("true {:?}, SNR {:.1} dB; rounds {steps:#?}", r.true_parameters, r.snr_db);
+    assert!(r.false_claims.is_empty(), "false claims {:?}", r.false_claims);
+    assert!(r.found_all, "applied {:?}", r.applied);
+    assert_eq!(r.history.len(), 3);
+    assert!(r.ended_clean, "round 3: {}", r.history[2].verdict);
+    assert!(r.history[1].envelope_nrmse < r.history[0].envelope_nrmse && r.history[2].envelope_nrmse < r.history[1].envelope_nrmse, "{steps:?}");
+}

@@ -2,7 +2,7 @@
 //! evidence in the residual map for that effect's signature with a trial — switch it on, fit
 //! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
 
-use super::calibrate::{calibration_parameters, evaluate, fit_evaluations, fit_trial, fit_trial_evaluations, fit_with_progress, objective, Fit, LoopError, LoopOptions, LoopProgress, Param};
+use super::calibrate::{calibration_parameters_for, evaluate, fit_evaluations, fit_trial, fit_trial_evaluations, fit_with_progress, objective, Fit, LoopError, LoopOptions, LoopProgress, Param};
 use super::residual::{residual_map, ResidualMap};
 use super::{Comparison, Reference};
 use crate::kinematics::CharacteristicFrequency;
@@ -302,7 +302,7 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// [`diagnose`] against a prepared [`Reference`].
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let measured = reference;
-    let cal_params = calibration_parameters(m);
+    let cal_params = calibration_parameters_for(m, opts);
     let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, m) && (opts.candidates.is_empty() || opts.candidates.contains(k))).collect();
     progress.expect(
         fit_evaluations(m, &cal_params, opts.sweeps, opts)
@@ -315,13 +315,13 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 let mut t = m.clone();
                 t.effects.enable(*k);
                 if recalibrates(*k) {
-                    fit_evaluations(&t, &recalibration_parameters(*k, &t), 1, opts)
+                    fit_evaluations(&t, &recalibration_parameters(*k, &t, opts), 1, opts)
                 } else {
                     fit_trial_evaluations(&t, &Param::of_effect(*k), &TRIAL_REFINE, opts)
                 }
             })
             .sum::<usize>()
-            + opts.recalibrate_top.min(candidates.len()) * fit_trial_evaluations(m, &[], &calibration_parameters(m), opts),
+            + opts.recalibrate_top.min(candidates.len()) * fit_trial_evaluations(m, &[], &cal_params, opts),
     );
     let (cal_m, cal) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
     let (c, _) = evaluate(&cal_m, measured, opts)?;
@@ -366,7 +366,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 if t.validate().is_err() {
                     return None;
                 }
-                let ps = recalibration_parameters(k, &t);
+                let ps = recalibration_parameters(k, &t, opts);
                 let (fm, f) = fit_with_progress(&t, measured, &ps, 1, opts, progress).ok()?;
                 let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
                 return Some((make_trial(k, &fm, &f, &released), fm));
@@ -396,7 +396,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     stage1.sort_by(|a, b| a.0.objective_after.total_cmp(&b.0.objective_after));
     let n2 = opts.recalibrate_top.min(stage1.len());
     let rest = stage1.split_off(n2);
-    let released = calibration_parameters(&cal_m);
+    let released = calibration_parameters_for(&cal_m, opts);
     let stage2: Vec<EffectTrial> = stage1
         .into_par_iter()
         .map(|(t1, fm)| match fit_trial(&fm, measured, &[], &released, opts, progress) {
@@ -429,9 +429,13 @@ pub fn recalibrates(k: EffectKind) -> bool {
 }
 
 /// The parameters a re-calibrating trial fits, in order: the effect's, then the calibration's.
-fn recalibration_parameters(k: EffectKind, m: &Machine) -> Vec<Param> {
+fn recalibration_parameters(k: EffectKind, m: &Machine, opts: &LoopOptions) -> Vec<Param> {
     let mut ps = Param::of_effect(k);
-    ps.extend(calibration_parameters(m));
+    for p in calibration_parameters_for(m, opts) {
+        if !ps.contains(&p) {
+            ps.push(p);
+        }
+    }
     ps
 }
 
@@ -466,6 +470,11 @@ pub struct Round {
     pub envelope_nrmse: f64,
     /// Objective after calibration.
     pub objective: f64,
+    /// The seed floor of that objective (see [`seed_floor`]): objective / floor says whether
+    /// anything is left to explain. 0 when not computed (a desktop-app round recorded from a
+    /// trial's fit rather than a diagnosis).
+    #[serde(default)]
+    pub floor_objective: f64,
     /// The verdict.
     pub verdict: String,
     /// The effect applied at the end of the round.
@@ -481,8 +490,10 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
     let mut current = m.clone();
     let mut history = Vec::new();
     let mut last = None;
+    // Every applied effect's parameters join the calibration of the rounds after it.
+    let mut opts = opts.clone();
     for r in 1..=rounds.max(1) {
-        let (cal, d) = diagnose_with(&current, &reference, opts, progress)?;
+        let (cal, d) = diagnose_with(&current, &reference, &opts, progress)?;
         let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::INFINITY);
         let mut next = cal.clone();
         let applied = d.best;
@@ -491,8 +502,11 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 Some(t) => apply_trial(&mut next, t),
                 None => next.effects.enable(k),
             }
+            if !opts.refit_effects.contains(&k) {
+                opts.refit_effects.push(k);
+            }
         }
-        history.push(Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, verdict: d.verdict.clone(), applied });
+        history.push(Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), applied });
         current = next;
         let stop = applied.is_none();
         last = Some(d);

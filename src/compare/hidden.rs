@@ -1,10 +1,11 @@
-//! Hidden-effect cases: the "measurement" is simulated with an effect the model is not told
-//! about (random parameters, a different seed, perturbed baseline parameters, measurement noise
-//! at SNR 0–20 dB); the model starts without it. The search must rank the hidden effect first;
-//! with nothing hidden it must answer "nothing significant is missing".
+//! Hidden-effect cases: the "measurement" is simulated with one or more effects the model is not
+//! told about (random parameters, a different seed, perturbed baseline parameters, measurement
+//! noise at SNR 0–20 dB); the model starts without them. With one hidden effect the search must
+//! rank it first; with two, the loop must find and apply both, one per round, and then answer
+//! "nothing significant is missing"; with nothing hidden it must answer that at once.
 
 use super::calibrate::{LoopError, LoopOptions, Param};
-use super::diagnose::diagnose;
+use super::diagnose::{diagnose, run_loop, Round};
 use crate::model::{self, EffectKind, Machine};
 use crate::signal::synth;
 use rand::RngExt;
@@ -85,12 +86,23 @@ pub fn hide_effect(m: &mut Machine, k: EffectKind, rng: &mut impl rand::Rng) -> 
 /// linearised contact). Every measurement has noise (SNR 0–20 dB); the model has the noise
 /// effect on (its level is calibrated) unless the hidden effect is noise itself.
 pub fn make_case(base: &Machine, hidden: Option<EffectKind>, seed: u64) -> (Machine, Machine, Option<(Param, f64)>, f64) {
+    let (truth, model_m, params, snr) = make_case_hiding(base, hidden.as_slice(), seed);
+    (truth, model_m, params.first().copied(), snr)
+}
+
+/// [`make_case`] with any number of hidden effects: each is switched off in the model and on,
+/// with a random parameter, in the measurement. Returns the true parameters in the order of
+/// `hidden` (effects without a parameter, such as `nonlinear_contact`, add none). With one
+/// effect it draws exactly what [`make_case`] draws, so the single-effect tables stay
+/// reproducible.
+pub fn make_case_hiding(base: &Machine, hidden: &[EffectKind], seed: u64) -> (Machine, Machine, Vec<(Param, f64)>, f64) {
     let mut rng = synth::rng(seed ^ 0xC0FFEE);
     let mut model_m = base.clone();
-    if let Some(k) = hidden {
-        model_m.effects.disable(k);
+    for k in hidden {
+        model_m.effects.disable(*k);
     }
-    if hidden != Some(EffectKind::Noise) {
+    let noise_hidden = hidden.contains(&EffectKind::Noise);
+    if !noise_hidden {
         model_m.effects.enable(EffectKind::Noise);
         if let Some(n) = model_m.effects.noise.as_mut() {
             n.snr_db = 10.0;
@@ -106,19 +118,16 @@ pub fn make_case(base: &Machine, hidden: Option<EffectKind>, seed: u64) -> (Mach
             p.set(&mut truth, v * (1.0 + uniform(&mut rng, -rel, rel)));
         }
     }
-    let true_parameter = match hidden {
-        Some(k) => hide_effect(&mut truth, k, &mut rng),
-        None => None,
-    };
-    let snr = if hidden == Some(EffectKind::Noise) {
-        true_parameter.map(|(_, v)| v).unwrap_or(10.0)
+    let true_parameters: Vec<(Param, f64)> = hidden.iter().filter_map(|k| hide_effect(&mut truth, *k, &mut rng)).collect();
+    let snr = if noise_hidden {
+        true_parameters.iter().find(|(p, _)| *p == Param::NoiseSnrDb).map(|(_, v)| *v).unwrap_or(10.0)
     } else {
         let s = uniform(&mut rng, 0.0, 20.0);
         truth.effects.enable(EffectKind::Noise);
         Param::NoiseSnrDb.set(&mut truth, s);
         s
     };
-    (truth, model_m, true_parameter, snr)
+    (truth, model_m, true_parameters, snr)
 }
 
 /// Runs one case: simulate the measurement (`duration_s`), diagnose the model against it.
@@ -146,6 +155,51 @@ pub fn run_case(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_
         floor_objective: d.floor_objective,
         objective_scatter: d.objective_scatter,
         trials: d.trials.clone(),
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// The outcome of a case with several hidden effects, run through the loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MultiCaseResult {
+    /// The hidden effects.
+    pub hidden: Vec<EffectKind>,
+    /// Their true parameters.
+    pub true_parameters: Vec<(Param, f64)>,
+    /// Measurement SNR, dB.
+    pub snr_db: f64,
+    /// Every round of the loop: metrics of the calibrated model, verdict, effect applied.
+    pub history: Vec<Round>,
+    /// The effects applied, in order.
+    pub applied: Vec<EffectKind>,
+    /// Every hidden effect was applied.
+    pub found_all: bool,
+    /// Effects applied that were not hidden (false claims).
+    pub false_claims: Vec<EffectKind>,
+    /// The loop ended on "nothing significant is missing" (and not on the round limit).
+    pub ended_clean: bool,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+/// Runs a case with the effects `hidden` (see [`make_case_hiding`]) through [`run_loop`] for up
+/// to `rounds` rounds: each round calibrates, diagnoses and applies the effect it chooses.
+pub fn run_multi_case(base: &Machine, hidden: &[EffectKind], seed: u64, duration_s: f64, rounds: usize, opts: &LoopOptions) -> Result<MultiCaseResult, LoopError> {
+    let t0 = std::time::Instant::now();
+    let (mut truth, model_m, true_parameters, snr_db) = make_case_hiding(base, hidden, seed);
+    truth.duration_s = duration_s;
+    let measured = model::simulate(&truth)?;
+    let (_, history, _) = run_loop(&model_m, &measured, rounds, opts, &|_, _| true)?;
+    let applied: Vec<EffectKind> = history.iter().filter_map(|r| r.applied).collect();
+    Ok(MultiCaseResult {
+        hidden: hidden.to_vec(),
+        true_parameters,
+        snr_db,
+        found_all: hidden.iter().all(|k| applied.contains(k)),
+        false_claims: applied.iter().filter(|k| !hidden.contains(k)).copied().collect(),
+        ended_clean: history.last().is_some_and(|r| r.applied.is_none()),
+        applied,
+        history,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

@@ -341,7 +341,9 @@ impl Workbench {
     fn find_missing_effect(&mut self, measured: usize) {
         let Some(meas) = self.measured_entry(Some(measured)) else { return };
         let machine = self.session.model.machine.clone();
-        let opts = self.settings.loop_options(jobs::compare_options_for(&self.session.chain));
+        let mut opts = self.settings.loop_options(jobs::compare_options_for(&self.session.chain));
+        // Effects added in earlier rounds are re-fitted by the calibration, as `run_loop` does.
+        opts.refit_effects = self.session.model.history.iter().filter_map(|r| r.applied).collect();
         if !(opts.fit_duration_s.is_finite() && opts.fit_duration_s >= 0.2) {
             self.session.tell(Level::Error, format!("fit duration {} s: must be at least 0.2 s", opts.fit_duration_s));
             return;
@@ -381,6 +383,7 @@ impl Workbench {
             domains: t.domains.iter().map(|(d, _, after)| (d.clone(), f64::NAN, *after)).collect(),
             envelope_nrmse: t.envelope_nrmse_after,
             objective: t.objective_after,
+            floor_objective: 0.0,
             verdict: format!("after adding {} (the trial's fit; Find missing effect again recalibrates)", effect.name()),
             applied: None,
         });
@@ -524,7 +527,7 @@ impl Workbench {
                 let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
                 let effects_on = r.started_from.effects.enabled();
                 let model = &mut self.session.model;
-                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, verdict: d.verdict.clone(), applied: None };
+                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), applied: None };
                 match model.history.last_mut() {
                     // The same model again (after an Add, or a re-run): this search calibrates it.
                     Some(last) if last.applied.is_none() && last.effects_on == effects_on => *last = Round { round: last.round, ..round },
