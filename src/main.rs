@@ -605,21 +605,26 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     if groups.is_empty() {
         return Ok(());
     }
-    println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims |");
-    println!("|---|---|---:|---|---|---|");
+    println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims | missed (rank, explains in the last round) |");
+    println!("|---|---|---:|---|---|---|---|");
     for (j, g) in groups.iter().enumerate() {
         let r = hidden::run_multi_case(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 1), &opts)?;
         let names = |ks: &[EffectKind]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ");
         let tp = r.true_parameters.iter().map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).collect::<Vec<_>>().join(", ");
         let steps = r.history.iter().map(|h| format!("{:.1} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.applied.map(|k| k.name()).unwrap_or("nothing significant"))).collect::<Vec<_>>().join("; ");
+        let missed = r.missed.iter().map(|(k, at)| match at {
+            Some((i, e)) => format!("{} ({i}, {:.0} %)", k.name(), e * 100.0),
+            None => format!("{} (not tried)", k.name()),
+        }).collect::<Vec<_>>().join(", ");
         println!(
-            "| {} | {} | {:.1} | {} | {} | {} |",
+            "| {} | {} | {:.1} | {} | {} | {} | {} |",
             names(&r.hidden),
             if tp.is_empty() { "-".into() } else { tp },
             r.snr_db,
             steps,
             if r.found_all { "yes" } else { "no" },
-            if r.false_claims.is_empty() { "none".into() } else { names(&r.false_claims) }
+            if r.false_claims.is_empty() { "none".into() } else { names(&r.false_claims) },
+            if missed.is_empty() { "-".into() } else { missed }
         );
         multi.push(r);
         write_json(&results, &multi)?;

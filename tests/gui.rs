@@ -364,7 +364,7 @@ fn session_round_trips() {
     h.state_mut().execute(Command::SetMetadata { index: 0, fs_hz: 12000.0, shaft_speed_hz: Some(29.5), bearing: Some("SKF 6205-2RS JEM".into()) });
     h.state_mut().execute(Command::ChainPreset("welch".into()));
     h.state_mut().execute(Command::LoadMachinePreset("cwru_6205_outer".into()));
-    h.state_mut().session.model.history.push(twinscope::compare::Round { round: 1, effects_on: vec![], domains: vec![], envelope_nrmse: 42.5, objective: 61.25, floor_objective: 3.5, verdict: "v".into(), applied: None });
+    h.state_mut().session.model.history.push(twinscope::compare::Round { round: 1, effects_on: vec![], domains: vec![], envelope_nrmse: 42.5, objective: 61.25, floor_objective: 3.5, verdict: "v".into(), ranking: vec![], applied: None });
     h.run_steps(2);
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("s.twinscope.json");

@@ -477,8 +477,17 @@ pub struct Round {
     pub floor_objective: f64,
     /// The verdict.
     pub verdict: String,
+    /// The round's ranking, best first: each trial's effect, its objective after the trial and
+    /// the share of the error above the floor it explains. Empty when not computed.
+    #[serde(default)]
+    pub ranking: Vec<(EffectKind, f64, f64)>,
     /// The effect applied at the end of the round.
     pub applied: Option<EffectKind>,
+}
+
+/// A diagnosis's ranking as kept in a [`Round`]: (effect, objective after, explained share).
+pub fn ranking_of(d: &Diagnosis) -> Vec<(EffectKind, f64, f64)> {
+    d.trials.iter().map(|t| (t.effect, t.objective_after, t.explained)).collect()
 }
 
 /// compare → diagnose → apply the best effect (with its fitted parameter) → repeat, for up to
@@ -506,7 +515,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 opts.refit_effects.push(k);
             }
         }
-        history.push(Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), applied });
+        history.push(Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: ranking_of(&d), applied });
         current = next;
         let stop = applied.is_none();
         last = Some(d);

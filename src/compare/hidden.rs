@@ -176,6 +176,9 @@ pub struct MultiCaseResult {
     pub found_all: bool,
     /// Effects applied that were not hidden (false claims).
     pub false_claims: Vec<EffectKind>,
+    /// Each hidden effect never applied, with its 1-based rank and explained share in the last
+    /// round's ranking (None: not in it).
+    pub missed: Vec<(EffectKind, Option<(usize, f64)>)>,
     /// The loop ended on "nothing significant is missing" (and not on the round limit).
     pub ended_clean: bool,
     /// Wall time, s.
@@ -191,7 +194,10 @@ pub fn run_multi_case(base: &Machine, hidden: &[EffectKind], seed: u64, duration
     let measured = model::simulate(&truth)?;
     let (_, history, _) = run_loop(&model_m, &measured, rounds, opts, &|_, _| true)?;
     let applied: Vec<EffectKind> = history.iter().filter_map(|r| r.applied).collect();
+    let last_ranking = history.last().map(|r| r.ranking.as_slice()).unwrap_or_default();
+    let missed = hidden.iter().filter(|k| !applied.contains(k)).map(|k| (*k, last_ranking.iter().position(|x| x.0 == *k).map(|i| (i + 1, last_ranking[i].2)))).collect();
     Ok(MultiCaseResult {
+        missed,
         hidden: hidden.to_vec(),
         true_parameters,
         snr_db,
