@@ -109,6 +109,16 @@ fn bad_parameters_fail_cleanly() {
 }
 
 #[test]
+fn confusion_refuses_bad_hidden_effect_groups_before_any_work() {
+    // An unknown effect, one named twice, one the preset cannot have, and zero rounds: each
+    // refused at once, naming the group.
+    assert_clean_failure(&run(&["confusion", "--hide", "load_zone+bogus", "--controls", "0"]), &["--hide load_zone+bogus", "bogus", "known:"]);
+    assert_clean_failure(&run(&["confusion", "--hide", "slip+slip", "--controls", "0"]), &["slip+slip", "named twice"]);
+    assert_clean_failure(&run(&["confusion", "--preset", "cwru_6205_inner", "--hide", "load_zone+gear_mesh", "--controls", "0"]), &["gear_mesh", "does not apply", "cwru_6205_inner"]);
+    assert_clean_failure(&run(&["confusion", "--hide", "load_zone+slip", "--rounds", "0", "--controls", "0"]), &["--rounds"]);
+}
+
+#[test]
 fn sample_jobs_run_and_write_csv_and_json() {
     let samples = Path::new(env!("CARGO_MANIFEST_DIR")).join("sample_data");
     let mut jobs: Vec<PathBuf> = std::fs::read_dir(&samples).unwrap().filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "toml")).collect();
