@@ -429,3 +429,19 @@ fn model_loop_search_shows_progress_and_cancels() {
     assert!(s.session.messages.iter().any(|m| m.text.ends_with(": cancelled")), "{:?}", s.session.messages.iter().map(|m| &m.text).collect::<Vec<_>>());
     assert_eq!(s.session.signals.len(), 1, "nothing loaded is lost");
 }
+
+/// The model-loop view's history shows each round's seed floor next to its objective (what a
+/// perfect model would still score), and "-" for a round recorded from a trial's fit.
+#[test]
+fn model_loop_history_shows_the_floor() {
+    let mut h = harness(StartOptions { tab: Some("model".into()), ..Default::default() });
+    h.run_steps(2);
+    let round = |n: usize, objective: f64, floor_objective: f64| twinscope::compare::Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 9.5, objective, floor_objective, verdict: "v".into(), ranking: vec![], applied: None };
+    h.state_mut().session.model.history.push(round(1, 61.25, 7.25));
+    h.state_mut().session.model.history.push(round(2, 12.75, 0.0));
+    h.run_steps(3);
+    assert!(h.query_by_label("floor").is_some(), "the history table has a floor column");
+    assert!(h.query_by_label("7.2").is_some(), "round 1's floor is shown");
+    assert!(h.query_by_label("61.2").is_some() && h.query_by_label("12.8").is_some(), "both objectives are shown");
+    assert!(h.query_all_by_label("-").count() >= 2, "round 2 has no floor (and nothing applied)");
+}

@@ -172,14 +172,17 @@ impl ModelLoopView {
         }
         let env: Vec<[f64; 2]> = h.iter().map(|r| [r.round as f64, r.envelope_nrmse]).collect();
         let obj: Vec<[f64; 2]> = h.iter().map(|r| [r.round as f64, r.objective]).collect();
+        // The floor is known for rounds that ran a diagnosis (0: a round recorded from a trial).
+        let floor: Vec<[f64; 2]> = h.iter().filter(|r| r.floor_objective > 0.0).map(|r| [r.round as f64, r.floor_objective]).collect();
         Plot::new("rounds-chart").height(170.0).legend(Legend::default()).x_axis_label("round").y_axis_label("NRMSE (%)").include_y(0.0).include_x(0.5).include_x(h.len() as f64 + 0.5).show(ui, |pu| {
             pu.line(Line::new("envelope NRMSE (%)", PlotPoints::from(env.clone())).color(ENVELOPE).width(1.5));
             pu.points(Points::new("envelope NRMSE (%)", PlotPoints::from(env)).color(ENVELOPE).radius(4.0));
             pu.line(Line::new("objective (weighted NRMSE, %)", PlotPoints::from(obj.clone())).color(OBJECTIVE).width(1.5));
             pu.points(Points::new("objective (weighted NRMSE, %)", PlotPoints::from(obj)).color(OBJECTIVE).radius(4.0));
+            pu.points(Points::new("floor: the model against itself", PlotPoints::from(floor)).color(OBJECTIVE).shape(egui_plot::MarkerShape::Diamond).filled(false).radius(5.0));
         });
-        egui::Grid::new("rounds-table").striped(true).num_columns(5).show(ui, |ui| {
-            for hdr in ["round", "envelope NRMSE", "objective", "effects on", "then added"] {
+        egui::Grid::new("rounds-table").striped(true).num_columns(6).show(ui, |ui| {
+            for hdr in ["round", "envelope NRMSE", "objective", "floor", "effects on", "then added"] {
                 ui.weak(hdr);
             }
             ui.end_row();
@@ -187,6 +190,7 @@ impl ModelLoopView {
                 ui.label(format!("round {}", r.round)).on_hover_text(drawable(&r.verdict));
                 ui.label(format!("{:.1} %", r.envelope_nrmse));
                 ui.label(format!("{:.1}", r.objective));
+                ui.label(if r.floor_objective > 0.0 { format!("{:.1}", r.floor_objective) } else { "-".into() }).on_hover_text("objective of the model against realisations of itself: what a perfect model would still score");
                 ui.label(r.effects_on.iter().map(|k| k.name()).collect::<Vec<_>>().join(", "));
                 ui.label(r.applied.map(|k| k.name()).unwrap_or("-"));
                 ui.end_row();
