@@ -374,12 +374,11 @@ fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, dur
     if let Some(s) = seed {
         m.seed = s;
     }
-    let kind = |n: &str| EffectKind::parse(n).with_context(|| format!("unknown effect `{n}`; effects: {}", EffectKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")));
     for n in with {
-        m.effects.enable(kind(n)?);
+        m.effects.enable(EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
     }
     for n in without {
-        m.effects.disable(kind(n)?);
+        m.effects.disable(EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
     }
     m.validate()?;
     let built = model::Model::build(&m)?;
@@ -416,7 +415,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
         (None, Some(name)) => {
             let mut m = model::preset(&name)?;
             for n in with {
-                m.effects.enable(EffectKind::parse(n).with_context(|| format!("unknown effect `{n}`"))?);
+                m.effects.enable(EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
             }
             opts.fault_frequency_hz = opts.fault_frequency_hz.or_else(|| fault_frequency_hz(&m, &meas));
             model::simulate(&m)?
@@ -466,7 +465,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         (None, None) => anyhow::bail!("give --machine FILE or --preset NAME"),
     };
     for n in with {
-        m.effects.enable(twinscope::model::EffectKind::parse(n).with_context(|| format!("unknown effect `{n}`"))?);
+        m.effects.enable(twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
     }
     m.validate()?;
     let mut opts = LoopOptions { fit_duration_s, ..Default::default() };
@@ -539,7 +538,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     use twinscope::compare::{hidden, LoopOptions};
     use twinscope::model::{self, EffectKind, Effects};
     let base = model::preset(preset)?;
-    let parse = |n: &str| EffectKind::parse(n.trim()).with_context(|| format!("unknown effect `{}` (known: {})", n.trim(), EffectKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")));
+    let parse = |n: &str| EffectKind::parse_named(n.trim()).map_err(anyhow::Error::msg);
     let kinds: Vec<EffectKind> = if effects.is_empty() && hide.is_empty() {
         EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, &base)).collect()
     } else {

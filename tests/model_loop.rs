@@ -144,18 +144,26 @@ fn the_misalignment_trial_scales_its_1x_force_with_the_2x() {
     assert!((mi.force_1x_n - 0.1 * ratio).abs() < 1e-12, "1× force {} N", mi.force_1x_n);
 }
 
+/// A single-effect case of the bearing base (`mfs_inner`): 2 s of "measurement" with `hidden`
+/// (case `seed`), diagnosed with default options over `candidates`. Returns the true machine,
+/// the true parameter, the SNR, the calibrated machine and the diagnosis.
+fn diagnose_hidden(hidden_effect: EffectKind, seed: u64, candidates: Vec<EffectKind>) -> (model::Machine, Option<(Param, f64)>, f64, model::Machine, twinscope::compare::Diagnosis) {
+    let base = model::preset("mfs_inner").unwrap();
+    let (mut truth, model_m, true_param, snr) = hidden::make_case(&base, Some(hidden_effect), seed);
+    truth.duration_s = 2.0;
+    let measured = model::simulate(&truth).unwrap();
+    let opts = LoopOptions { candidates, ..Default::default() };
+    let (cal_m, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
+    (truth, true_param, snr, cal_m, d)
+}
+
 #[test]
 fn a_hidden_casing_mode_is_found_by_recalibrating_with_it() {
     // The "measurement" has a casing mode at 3.2 kHz (seed 1302 of the bearing-base table); the
     // calibration without it bends the resonance and the fault depth to imitate it. The
     // casing-mode trial re-does the calibration with the mode and must win, and un-bend the
     // resonance towards the truth.
-    let base = model::preset("mfs_inner").unwrap();
-    let (mut truth, model_m, true_param, snr) = hidden::make_case(&base, Some(EffectKind::CasingModes), 1302);
-    truth.duration_s = 2.0;
-    let measured = model::simulate(&truth).unwrap();
-    let opts = LoopOptions { candidates: vec![EffectKind::CasingModes, EffectKind::SensorResponse, EffectKind::Slip], ..Default::default() };
-    let (cal_m, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
+    let (truth, true_param, snr, cal_m, d) = diagnose_hidden(EffectKind::CasingModes, 1302, vec![EffectKind::CasingModes, EffectKind::SensorResponse, EffectKind::Slip]);
     let (_, f_true) = true_param.unwrap();
     eprintln!("true mode {f_true:.0} Hz, SNR {snr:.1} dB; {}", d.verdict);
     assert_eq!(d.best, Some(EffectKind::CasingModes), "{}", d.verdict);
@@ -172,12 +180,7 @@ fn a_hidden_unbalance_is_not_taken_for_misalignment() {
     // Seed 1307 of the earlier bearing-base table: with the misalignment's 1× force fixed, its
     // trial fitted the 2× to nothing and passed for the unbalance on the fixed 1× alone. With
     // the 1× scaled with the 2×, the unbalance trial must win.
-    let base = model::preset("mfs_inner").unwrap();
-    let (mut truth, model_m, true_param, snr) = hidden::make_case(&base, Some(EffectKind::Unbalance), 1307);
-    truth.duration_s = 2.0;
-    let measured = model::simulate(&truth).unwrap();
-    let opts = LoopOptions { candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment], ..Default::default() };
-    let (_, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
+    let (_, true_param, snr, _, d) = diagnose_hidden(EffectKind::Unbalance, 1307, vec![EffectKind::Unbalance, EffectKind::Misalignment]);
     eprintln!("true {true_param:?}, SNR {snr:.1} dB; {}", d.verdict);
     assert_eq!(d.best, Some(EffectKind::Unbalance), "{}", d.verdict);
 }

@@ -131,7 +131,7 @@ fn build_machine(machine: &Option<String>, preset: &Option<String>, with: &[Stri
     };
     for (list, on) in [(with, true), (without, false)] {
         for name in list.iter() {
-            let k = EffectKind::parse(name).ok_or_else(|| at(format!("unknown effect `{name}`")))?;
+            let k = EffectKind::parse_named(name).map_err(at)?;
             if on {
                 m.effects.enable(k)
             } else {
@@ -231,7 +231,7 @@ impl LoopSpec {
         o.candidates = self
             .candidates
             .iter()
-            .map(|n| EffectKind::parse(n).ok_or_else(|| format!("`model_loop.candidates`: unknown effect `{n}` (see `twinscope presets` and README \"The physics model\")")))
+            .map(|n| EffectKind::parse_named(n).map_err(|e| format!("`model_loop.candidates`: {e}")))
             .collect::<Result<_, _>>()?;
         Ok(o)
     }

@@ -69,6 +69,12 @@ impl EffectKind {
     pub fn parse(name: &str) -> Option<EffectKind> {
         EffectKind::ALL.into_iter().find(|k| k.name() == name)
     }
+
+    /// [`EffectKind::parse`] for user input: an unknown name gives a message that lists the
+    /// known ones.
+    pub fn parse_named(name: &str) -> Result<EffectKind, String> {
+        Self::parse(name).ok_or_else(|| format!("unknown effect `{name}` (known: {})", EffectKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")))
+    }
 }
 
 /// Radial load on the shaft: only the balls in the load zone carry load, so impacts of an
