@@ -156,7 +156,8 @@ enum Command {
         /// Seed of the first case (case i uses seed + i): a new seed draws new cases.
         #[arg(long, default_value_t = 100)]
         seed: u64,
-        /// Write all case results as JSON.
+        /// Write all case results as JSON (rewritten after every case): an array of single-effect
+        /// cases, or, with `--hide`, `{"single": [...], "multi": [...]}`.
         #[arg(long)]
         json: Option<PathBuf>,
     },
