@@ -391,3 +391,36 @@ fn divergence_is_reported_not_recorded() {
     ok.settle_s = 0.0;
     assert!(model::simulate(&ok).unwrap().samples.iter().all(|x| x.is_finite()));
 }
+
+/// 6: the equilibrium search crosses the bearing clearance when the static load points away
+/// from where the assembly's guess puts the shaft. The MFS preset with a 6 N load zone (the
+/// guess: shaft down, in contact) and 3 µm clearance, plus a 20 N belt-pass force whose value
+/// at t = 0 lifts the shaft: between the races there is no stiffness and a constant force, so
+/// the plain Levenberg–Marquardt step (accepted only if the force residual falls) stalls. Found
+/// in the loop: the `belt_drive` trial after `load_zone` failed this way and was dropped.
+/// The equilibrium must be found, the shaft must sit on the side the net load pushes it to,
+/// beyond the clearance, and the residual must be below the search's 1e-6 N tolerance.
+#[test]
+fn static_equilibrium_crosses_the_clearance_against_the_guess() {
+    let mut m = model::preset("mfs_inner").unwrap();
+    m.effects.load_zone = Some(LoadZone { radial_load_n: 6.0 });
+    m.bearings[0].radial_clearance_m = 3e-6;
+    m.effects.belt_drive = Some(twinscope::model::BeltDrive { force_n: 20.0, ..Default::default() });
+    let model = Model::build(&m).unwrap();
+    let sys = &model.system;
+    let n = sys.n();
+    let (sy, py) = (dof(&model, "motor.y"), dof(&model, "test.pedestal.y"));
+    // The net external load on the shaft at t = 0: at q = 0 every ball is inside the clearance.
+    let mut f0 = vec![0.0; n];
+    sys.forces(0.0, &vec![0.0; n], &vec![0.0; n], &mut f0);
+    assert!(f0[sy] > 1.0, "the test needs a net upward load at t = 0, got {} N", f0[sy]);
+    assert!(model.q_guess[sy] < 0.0, "the guess should put the shaft down, got {}", model.q_guess[sy]);
+    let sim = Simulator::new(&model).unwrap_or_else(|e| panic!("{e}"));
+    let mut f = vec![0.0; n];
+    sys.forces(0.0, &sim.q, &vec![0.0; n], &mut f);
+    let residual = f.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    let dr = sim.q[sy] - sim.q[py];
+    eprintln!("net load {:.2} N up; shaft − pedestal {dr:.3e} m; residual {residual:.2e} N", f0[sy]);
+    assert!(residual <= 1e-6, "residual {residual} N");
+    assert!(dr > 3e-6, "shaft {dr} m above the pedestal; the clearance is 3e-6 m");
+}

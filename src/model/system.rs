@@ -194,21 +194,61 @@ impl System {
     /// Static equilibrium at time `t` (velocities zero) from the guess `q0`, by a
     /// Levenberg–Marquardt iteration on the force balance. Returns `q` with
     /// `‖F(q)‖∞ ≤ tol_n` newtons.
+    ///
+    /// # Notes
+    /// A step is accepted when it lowers the force residual. Inside a bearing clearance that
+    /// rule stalls: the shaft meets no stiffness and a constant load, so no step lowers the
+    /// residual until the far race is reached (a load pointing away from the guess). The
+    /// static problem is also the minimum of the potential energy `V(t, q)`
+    /// ([`System::potential_energy`]), which does fall along the load; if the residual rule
+    /// stalls, the search descends `V` first (accepting steps that lower it) and then polishes
+    /// with the residual rule. Cases the residual rule solves are unchanged.
     pub fn static_equilibrium(&self, t: f64, q0: &[f64], tol_n: f64) -> Result<Vec<f64>, ModelError> {
+        let (q, f, done) = self.levenberg_marquardt(t, q0, tol_n, false);
+        if done {
+            return Ok(q);
+        }
+        let stalled = (q, f);
+        if self.potential_energy(t, q0).is_some() {
+            let (q1, _, done) = self.levenberg_marquardt(t, q0, tol_n, true);
+            if done {
+                return Ok(q1);
+            }
+            let (q2, _, done) = self.levenberg_marquardt(t, &q1, tol_n, false);
+            if done {
+                return Ok(q2);
+            }
+        }
+        let f = stalled.1;
+        let worst = f.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).map(|(i, v)| (i, *v)).unwrap_or((0, 0.0));
+        Err(ModelError::NoEquilibrium(format!(
+            "residual {:.3e} N at DOF `{}`; check that every DOF is supported (a bearing or a coupling to ground)",
+            worst.1,
+            self.dof_names.get(worst.0).cloned().unwrap_or_default()
+        )))
+    }
+
+    /// Levenberg–Marquardt on `F(t, q) = 0` from `q0`: steps `(K + λ s I) Δq = F` with `K` the
+    /// tangent stiffness and `s` its largest diagonal term, accepted when they lower `‖F‖∞`
+    /// (or, with `descend_potential`, the potential energy). Returns the last `q`, its forces
+    /// and whether `‖F‖∞ ≤ tol_n` was reached.
+    fn levenberg_marquardt(&self, t: f64, q0: &[f64], tol_n: f64, descend_potential: bool) -> (Vec<f64>, Vec<f64>, bool) {
         let n = self.n();
         let v = vec![0.0; n];
         let mut q = q0.to_vec();
         let mut f = vec![0.0; n];
         self.forces(t, &q, &v, &mut f);
         let norm = |f: &[f64]| f.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let energy = |q: &[f64]| self.potential_energy(t, q).unwrap_or(f64::NAN);
+        let mut e = if descend_potential { energy(&q) } else { 0.0 };
         let mut lambda = 1e-6;
         for _ in 0..200 {
             let r = norm(&f);
             if !r.is_finite() {
-                return Err(ModelError::NoEquilibrium("non-finite force".into()));
+                return (q, f, false);
             }
             if r <= tol_n {
-                return Ok(q);
+                return (q, f, true);
             }
             let k = self.tangent_stiffness(t, &q, 1e-10);
             let scale = (0..n).map(|i| k[(i, i)].abs()).fold(0.0f64, f64::max).max(1.0);
@@ -223,7 +263,17 @@ impl System {
                 let trial: Vec<f64> = q.iter().zip(dq.iter()).map(|(a, b)| a + b).collect();
                 let mut ft = vec![0.0; n];
                 self.forces(t, &trial, &v, &mut ft);
-                if norm(&ft) < r {
+                let better = if descend_potential {
+                    let et = energy(&trial);
+                    let lower = et < e;
+                    if lower {
+                        e = et;
+                    }
+                    lower
+                } else {
+                    norm(&ft) < r
+                };
+                if better {
                     q = trial;
                     f = ft;
                     lambda = (lambda / 3.0).max(1e-12);
@@ -236,12 +286,8 @@ impl System {
                 break;
             }
         }
-        let worst = f.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).map(|(i, v)| (i, *v)).unwrap_or((0, 0.0));
-        Err(ModelError::NoEquilibrium(format!(
-            "residual {:.3e} N at DOF `{}`; check that every DOF is supported (a bearing or a coupling to ground)",
-            worst.1,
-            self.dof_names.get(worst.0).cloned().unwrap_or_default()
-        )))
+        let done = norm(&f) <= tol_n;
+        (q, f, done)
     }
 
     /// Checks that every DOF has stiffness to something (no free rigid-body motion).
