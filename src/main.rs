@@ -144,7 +144,8 @@ enum Command {
         /// `--effect`, no single-effect cases run.
         #[arg(long = "hide", value_name = "A+B")]
         hide: Vec<String>,
-        /// Rounds of the loop for `--hide` cases (default: the number hidden + 1).
+        /// Rounds of the loop for `--hide` cases (default: the number hidden + 2: one round per
+        /// effect, one that may replace a wrongly applied effect, one to answer "nothing missing").
         #[arg(long)]
         rounds: Option<usize>,
         /// Control cases with nothing hidden.
@@ -304,7 +305,7 @@ fn run_batch(job_path: &Path, out: Option<&Path>, quiet: bool) -> Result<()> {
             }
             if let Some(l) = &i.model_loop {
                 for r in &l.history {
-                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}); applied: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.applied.map(|k| k.name()).unwrap_or("-"));
+                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}); applied: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change("-"));
                 }
                 eprintln!("twinscope: {} model loop verdict: {} → {}", i.file, l.verdict, l.history_csv);
             }
@@ -515,11 +516,14 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             t.envelope_nrmse_after
         );
     }
+    for (k, why) in &last.failed_trials {
+        println!("    {:<18} not ranked: its trial failed: {why}", k.name());
+    }
     println!("\nverdict: {}", last.verdict);
     if history.len() > 1 || rounds > 1 {
         println!("\nhistory:");
         for r in &history {
-            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}), applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.applied.map(|k| k.name()).unwrap_or("-"));
+            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}), applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change("-"));
         }
     }
     if let Some(p) = json {
@@ -608,10 +612,10 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims | missed (rank, explains in the last round) |");
     println!("|---|---|---:|---|---|---|---|");
     for (j, g) in groups.iter().enumerate() {
-        let r = hidden::run_multi_case(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 1), &opts)?;
+        let r = hidden::run_multi_case(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 2), &opts)?;
         let names = |ks: &[EffectKind]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ");
         let tp = r.true_parameters.iter().map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).collect::<Vec<_>>().join(", ");
-        let steps = r.history.iter().map(|h| format!("{:.1} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.applied.map(|k| k.name()).unwrap_or("nothing significant"))).collect::<Vec<_>>().join("; ");
+        let steps = r.history.iter().map(|h| format!("{:.1} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.change("nothing significant"))).collect::<Vec<_>>().join("; ");
         let missed = r.missed.iter().map(|(k, at)| match at {
             Some((i, e)) => format!("{} ({i}, {:.0} %)", k.name(), e * 100.0),
             None => format!("{} (not tried)", k.name()),

@@ -76,6 +76,10 @@ pub struct Diagnosis {
     pub best: Option<EffectKind>,
     /// `"<effect>: <summary>"` or `"nothing significant is missing"`.
     pub verdict: String,
+    /// Candidates whose trial could not be run, with the reason (the machine with the effect
+    /// on is invalid, or its simulation failed). They are not ranked.
+    #[serde(default)]
+    pub failed_trials: Vec<(EffectKind, String)>,
 }
 
 /// Characteristic frequencies of a machine at its speed: shaft, bearing fault families of the
@@ -357,42 +361,48 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     };
     // Stage 1: every candidate, its own parameters fitted and the noise level re-fitted (a
     // transfer-path effect re-does the calibration with it, see [`recalibrates`]).
-    let stage1: Vec<(EffectTrial, Machine)> = candidates
+    let outcomes: Vec<(EffectKind, Result<(EffectTrial, Machine), String>)> = candidates
         .par_iter()
-        .filter_map(|&k| {
-            if recalibrates(k) {
-                let mut t = m.clone();
+        .map(|&k| {
+            let run = || -> Result<(EffectTrial, Machine), String> {
+                if recalibrates(k) {
+                    let mut t = m.clone();
+                    t.effects.enable(k);
+                    t.validate().map_err(|e| e.to_string())?;
+                    let ps = recalibration_parameters(k, &t, opts);
+                    let (fm, f) = fit_with_progress(&t, measured, &ps, 1, opts, progress).map_err(|e| e.to_string())?;
+                    let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
+                    return Ok((make_trial(k, &fm, &f, &released), fm));
+                }
+                let mut t = cal_m.clone();
                 t.effects.enable(k);
-                if t.validate().is_err() {
-                    return None;
+                if k == EffectKind::PathModulation {
+                    // A physical default for the unknown modulation rate: the shaft speed.
+                    if let (Some(pm), Some(fr)) = (t.effects.path_modulation.as_mut(), shaft) {
+                        pm.frequency_hz = fr;
+                    }
                 }
-                let ps = recalibration_parameters(k, &t, opts);
-                let (fm, f) = fit_with_progress(&t, measured, &ps, 1, opts, progress).ok()?;
-                let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
-                return Some((make_trial(k, &fm, &f, &released), fm));
-            }
-            let mut t = cal_m.clone();
-            t.effects.enable(k);
-            if k == EffectKind::PathModulation {
-                // A physical default for the unknown modulation rate: the shaft speed.
-                if let (Some(pm), Some(fr)) = (t.effects.path_modulation.as_mut(), shaft) {
-                    pm.frequency_hz = fr;
-                }
-            }
-            if t.validate().is_err() {
-                return None;
-            }
-            let (fm, f) = fit_trial(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, opts, progress).ok()?;
-            Some((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
+                t.validate().map_err(|e| e.to_string())?;
+                let (fm, f) = fit_trial(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, opts, progress).map_err(|e| e.to_string())?;
+                Ok((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
+            };
+            (k, run())
         })
         .collect();
+    let mut stage1: Vec<(EffectTrial, Machine)> = Vec::new();
+    let mut failed_trials = Vec::new();
+    for (k, o) in outcomes {
+        match o {
+            Ok(x) => stage1.push(x),
+            Err(e) => failed_trials.push((k, e)),
+        }
+    }
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
     }
     // Stage 2: the best `recalibrate_top` trials release every calibrated parameter (locally):
     // calibration without the effect may have bent the resonance or the fault depth to
     // imitate it, and the effect must be judged against a model free to un-bend them.
-    let mut stage1 = stage1;
     stage1.sort_by(|a, b| a.0.objective_after.total_cmp(&b.0.objective_after));
     let n2 = opts.recalibrate_top.min(stage1.len());
     let rest = stage1.split_off(n2);
@@ -414,7 +424,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     let trials: Vec<EffectTrial> = stage2.into_iter().chain(rest.into_iter().map(|x| x.0)).collect();
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials }))
 }
 
 /// Whether the trial of `k` re-does the calibration with the effect on instead of starting
@@ -483,6 +493,22 @@ pub struct Round {
     pub ranking: Vec<(EffectKind, f64, f64)>,
     /// The effect applied at the end of the round.
     pub applied: Option<EffectKind>,
+    /// The effect taken out at the end of the round, when the loop replaced an applied effect
+    /// (see [`run_loop`]); `applied` is then the one put in its place.
+    #[serde(default)]
+    pub removed: Option<EffectKind>,
+}
+
+impl Round {
+    /// What the round changed, in words: the effect applied, `"b in place of a"` for a
+    /// replacement, or `none` when nothing was applied.
+    pub fn change(&self, none: &str) -> String {
+        match (self.applied, self.removed) {
+            (Some(b), Some(a)) => format!("{} in place of {}", b.name(), a.name()),
+            (Some(b), None) => b.name().to_string(),
+            _ => none.to_string(),
+        }
+    }
 }
 
 /// A diagnosis's ranking as kept in a [`Round`]: (effect, objective after, explained share).
@@ -490,23 +516,96 @@ pub fn ranking_of(d: &Diagnosis) -> Vec<(EffectKind, f64, f64)> {
     d.trials.iter().map(|t| (t.effect, t.objective_after, t.explained)).collect()
 }
 
+/// Replacements tried when the loop is stuck (see [`run_loop`]).
+pub const REPLACEMENT_TRIALS: usize = 2;
+
+/// Whether a round that found nothing to add is stuck: its objective is still above
+/// `(1 + floor_margin) ×` its seed floor, so something is missing that no single addition
+/// finds.
+fn stuck(d: &Diagnosis, opts: &LoopOptions) -> bool {
+    d.best.is_none() && d.floor_objective > 0.0 && d.calibration.objective_after >= (1.0 + opts.floor_margin) * d.floor_objective
+}
+
+/// The replacements worth trying when the loop is stuck, best first, at most
+/// [`REPLACEMENT_TRIALS`]: (applied effect `a`, effect `b` to put in its place), where `b` was
+/// a runner-up in the round that applied `a` — it explained at least `significance` of the
+/// error there — and is neither on nor taken out before. Ranked by how close `b` came to `a`
+/// in that round (explained share of `b` / share of `a`).
+pub fn replacement_candidates(history: &[Round], current: &Machine, opts: &LoopOptions) -> Vec<(EffectKind, EffectKind)> {
+    let removed: Vec<EffectKind> = history.iter().filter_map(|r| r.removed).collect();
+    let mut pairs: Vec<(f64, EffectKind, EffectKind)> = Vec::new();
+    for r in history {
+        let Some(a) = r.applied else { continue };
+        if !current.effects.is_on(a) {
+            continue;
+        }
+        let share_a = r.ranking.iter().find(|x| x.0 == a).map(|x| x.2).unwrap_or(0.0).max(1e-9);
+        for &(b, _, share_b) in &r.ranking {
+            if b == a || current.effects.is_on(b) || removed.contains(&b) || share_b < opts.significance || pairs.iter().any(|p| p.1 == a && p.2 == b) {
+                continue;
+            }
+            pairs.push((share_b / share_a, a, b));
+        }
+    }
+    pairs.sort_by(|x, y| y.0.total_cmp(&x.0));
+    pairs.into_iter().take(REPLACEMENT_TRIALS).map(|p| (p.1, p.2)).collect()
+}
+
+/// The effects a loop's history leaves applied, in the order applied: every round's `applied`
+/// less those a later round `removed`.
+pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
+    let mut on: Vec<EffectKind> = Vec::new();
+    for r in history {
+        if let Some(k) = r.removed {
+            on.retain(|x| *x != k);
+        }
+        if let Some(k) = r.applied {
+            on.push(k);
+        }
+    }
+    on
+}
+
+/// The best objective a diagnosis reaches: after its chosen effect, or its calibration's.
+fn reachable_objective(d: &Diagnosis) -> f64 {
+    d.best.and_then(|k| d.trials.iter().find(|t| t.effect == k)).map(|t| t.objective_after).unwrap_or(d.calibration.objective_after)
+}
+
 /// compare → diagnose → apply the best effect (with its fitted parameter) → repeat, for up to
 /// `rounds` rounds or until nothing significant is missing. Returns the final machine, the
 /// history, and the last diagnosis.
+///
+/// **Replacement.** An effect applied while another one was still missing may have taken
+/// that one's place (a large unbalance standing in for a misalignment and a path modulation
+/// together, both at the shaft rate). Re-fitting its parameters cannot switch it off, and no
+/// single addition then helps. So when a round finds nothing to add but the model is still
+/// above `(1 + floor_margin) ×` its floor, and a round is left, the loop tries replacing an
+/// applied effect by a runner-up of the round that applied it ([`replacement_candidates`]):
+/// each candidate model (the applied effect off, the runner-up on and fitted by the
+/// calibration) gets a full diagnosis. The replacement is kept if what that diagnosis reaches
+/// (after its own best addition, if any) is below the stuck objective by more than the seed
+/// scatter (`2√2 σ`, as ties in [`decide`]); the round records it (`removed`, `applied`) and
+/// the next round starts from that diagnosis.
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     let reference = Reference::new(measured, &opts.compare)?;
     let progress = &LoopProgress::new(progress);
+    let rounds = rounds.max(1);
     let mut current = m.clone();
-    let mut history = Vec::new();
+    let mut history: Vec<Round> = Vec::new();
     let mut last = None;
+    // A diagnosis of `current` already made (by a kept replacement).
+    let mut pending: Option<(Machine, Diagnosis)> = None;
     // Every applied effect's parameters join the calibration of the rounds after it.
     let mut opts = opts.clone();
-    for r in 1..=rounds.max(1) {
-        let (cal, d) = diagnose_with(&current, &reference, &opts, progress)?;
+    for r in 1..=rounds {
+        let (cal, d) = match pending.take() {
+            Some(x) => x,
+            None => diagnose_with(&current, &reference, &opts, progress)?,
+        };
         let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::INFINITY);
-        let mut next = cal.clone();
-        let applied = d.best;
-        if let Some(k) = applied {
+        let mut round = Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: ranking_of(&d), applied: d.best, removed: None };
+        if let Some(k) = d.best {
+            let mut next = cal.clone();
             match d.trials.iter().find(|t| t.effect == k) {
                 Some(t) => apply_trial(&mut next, t),
                 None => next.effects.enable(k),
@@ -514,14 +613,60 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             if !opts.refit_effects.contains(&k) {
                 opts.refit_effects.push(k);
             }
+            history.push(round);
+            current = next;
+            last = Some(d);
+            continue;
         }
-        history.push(Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: ranking_of(&d), applied });
-        current = next;
-        let stop = applied.is_none();
+        if r < rounds && stuck(&d, &opts) {
+            let mut seen = history.clone();
+            seen.push(round.clone());
+            let tie = 2.0 * std::f64::consts::SQRT_2 * d.objective_scatter;
+            let mut kept: Option<(f64, EffectKind, EffectKind, Machine, Machine, Diagnosis, LoopOptions)> = None;
+            for (a, b) in replacement_candidates(&seen, &current, &opts) {
+                let mut swapped = cal.clone();
+                swapped.effects.disable(a);
+                swapped.effects.enable(b);
+                if b == EffectKind::PathModulation {
+                    let (_, shaft) = machine_families(&swapped);
+                    if let (Some(pm), Some(fr)) = (swapped.effects.path_modulation.as_mut(), shaft) {
+                        pm.frequency_hz = fr;
+                    }
+                }
+                if swapped.validate().is_err() {
+                    continue;
+                }
+                let mut o = opts.clone();
+                o.refit_effects.retain(|k| *k != a);
+                o.refit_effects.push(b);
+                let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
+                let v = reachable_objective(&d2);
+                if v < d.calibration.objective_after - tie && kept.as_ref().is_none_or(|k| v < k.0) {
+                    kept = Some((v, a, b, swapped, cal2, d2, o));
+                }
+            }
+            if let Some((v, a, b, swapped, cal2, d2, o)) = kept {
+                round.verdict = format!(
+                    "{}; replacing {} by {} (fitted by the calibration) reaches objective {v:.2} against {:.2}{}",
+                    d.verdict,
+                    a.name(),
+                    b.name(),
+                    d.calibration.objective_after,
+                    d2.best.map(|k| format!(" after adding {} next", k.name())).unwrap_or_default()
+                );
+                round.applied = Some(b);
+                round.removed = Some(a);
+                history.push(round);
+                current = swapped;
+                opts = o;
+                pending = Some((cal2, d2));
+                last = Some(d);
+                continue;
+            }
+        }
+        history.push(round);
         last = Some(d);
-        if stop {
-            break;
-        }
+        break;
     }
     let last = last.ok_or(LoopError::Cancelled)?;
     Ok((current, history, last))
@@ -626,4 +771,43 @@ mod tests {
         assert_eq!(pm.depth, 0.4);
         assert!((pm.frequency_hz - 29.95).abs() < 1e-9, "rate {} Hz", pm.frequency_hz);
     }
+
+    fn round(n: usize, ranking: Vec<(EffectKind, f64)>, applied: Option<EffectKind>, removed: Option<EffectKind>) -> Round {
+        let ranking = ranking.into_iter().map(|(k, e)| (k, 1.0 - e, e)).collect();
+        Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 1.0, objective: 1.0, floor_objective: 0.5, verdict: String::new(), ranking, applied, removed }
+    }
+
+    #[test]
+    fn applied_effects_drops_what_a_later_round_replaced() {
+        use EffectKind::*;
+        let h = vec![round(1, vec![], Some(Unbalance), None), round(2, vec![], Some(Misalignment), Some(Unbalance)), round(3, vec![], Some(PathModulation), None), round(4, vec![], None, None)];
+        assert_eq!(applied_effects(&h), vec![Misalignment, PathModulation]);
+        assert_eq!(h[1].change("-"), "misalignment in place of unbalance");
+        assert_eq!(h[3].change("-"), "-");
+    }
+
+    #[test]
+    fn replacements_are_runners_up_of_the_round_that_applied_the_effect() {
+        use EffectKind::*;
+        let mut m = crate::model::preset("mfs_healthy").unwrap();
+        m.effects.enable(Unbalance);
+        let opts = LoopOptions::default();
+        // Round 1 applied unbalance (66 %); misalignment came close (63 %), extended fault
+        // further (48 %), path modulation under the 20 % significance; round 2 found nothing.
+        let h = vec![
+            round(1, vec![(Unbalance, 0.66), (Misalignment, 0.63), (ExtendedFault, 0.48), (PathModulation, 0.15)], Some(Unbalance), None),
+            round(2, vec![(ToothFault, 0.06)], None, None),
+        ];
+        assert_eq!(replacement_candidates(&h, &m, &opts), vec![(Unbalance, Misalignment), (Unbalance, ExtendedFault)]);
+        // An effect already on is no replacement, nor is one taken out before.
+        m.effects.enable(Misalignment);
+        assert_eq!(replacement_candidates(&h, &m, &opts), vec![(Unbalance, ExtendedFault)]);
+        let mut h2 = h.clone();
+        h2.push(round(3, vec![], Some(Unbalance), Some(ExtendedFault)));
+        assert_eq!(replacement_candidates(&h2, &m, &opts), vec![]);
+        // Nothing applied: nothing to replace.
+        m.effects.disable(Unbalance);
+        assert_eq!(replacement_candidates(&h, &m, &opts), vec![]);
+    }
+
 }

@@ -193,7 +193,7 @@ pub fn run_multi_case(base: &Machine, hidden: &[EffectKind], seed: u64, duration
     truth.duration_s = duration_s;
     let measured = model::simulate(&truth)?;
     let (_, history, _) = run_loop(&model_m, &measured, rounds, opts, &|_, _| true)?;
-    let applied: Vec<EffectKind> = history.iter().filter_map(|r| r.applied).collect();
+    let applied = super::diagnose::applied_effects(&history);
     let last_ranking = history.last().map(|r| r.ranking.as_slice()).unwrap_or_default();
     let missed = hidden.iter().filter(|k| !applied.contains(k)).map(|k| (*k, last_ranking.iter().position(|x| x.0 == *k).map(|i| (i + 1, last_ranking[i].2)))).collect();
     Ok(MultiCaseResult {

@@ -343,7 +343,7 @@ impl Workbench {
         let machine = self.session.model.machine.clone();
         let mut opts = self.settings.loop_options(jobs::compare_options_for(&self.session.chain));
         // Effects added in earlier rounds are re-fitted by the calibration, as `run_loop` does.
-        opts.refit_effects = self.session.model.history.iter().filter_map(|r| r.applied).collect();
+        opts.refit_effects = crate::compare::diagnose::applied_effects(&self.session.model.history);
         if !(opts.fit_duration_s.is_finite() && opts.fit_duration_s >= 0.2) {
             self.session.tell(Level::Error, format!("fit duration {} s: must be at least 0.2 s", opts.fit_duration_s));
             return;
@@ -387,6 +387,7 @@ impl Workbench {
             ranking: Vec::new(),
             verdict: format!("after adding {} (the trial's fit; Find missing effect again recalibrates)", effect.name()),
             applied: None,
+            removed: None,
         });
         model.replace_machine(m);
         self.session.tell(Level::Info, format!("{} added: envelope NRMSE {:.1} -> {:.1} % in the trial; simulating the new model", effect.name(), t.envelope_nrmse_before, t.envelope_nrmse_after));
@@ -525,10 +526,13 @@ impl Workbench {
             Event::Output(JobOutput::Loop(r)) => {
                 let d = &r.diagnosis;
                 self.session.tell(Level::Info, format!("find missing effect ({:.0} s): {}", r.seconds, d.verdict));
+                for (k, why) in &d.failed_trials {
+                    self.session.tell(Level::Error, format!("find missing effect: {} not ranked, its trial failed: {why}", k.name()));
+                }
                 let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
                 let effects_on = r.started_from.effects.enabled();
                 let model = &mut self.session.model;
-                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: crate::compare::diagnose::ranking_of(d), applied: None };
+                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: crate::compare::diagnose::ranking_of(d), applied: None, removed: None };
                 match model.history.last_mut() {
                     // The same model again (after an Add, or a re-run): this search calibrates it.
                     Some(last) if last.applied.is_none() && last.effects_on == effects_on => *last = Round { round: last.round, ..round },
