@@ -45,17 +45,16 @@ pub fn load_file(id: u64, path: &Path, channel: Option<String>) -> Result<Signal
     Ok(SignalEntry { id, signal, origin: Origin::Measured, file: Some(path.to_path_buf()), channels: info.channels, machine_families: Vec::new() })
 }
 
-/// Simulates a machine preset with progress and cancel.
-pub fn simulate_preset(id: u64, preset: &str, job: &JobHandle) -> Result<SignalEntry, String> {
-    let machine = model::preset(preset).map_err(|e| e.to_string())?;
+/// Simulates the machine of preset `preset` (already loaded) with progress and cancel.
+pub fn simulate_preset(id: u64, machine: &model::Machine, preset: &str, job: &JobHandle) -> Result<SignalEntry, String> {
     machine.validate().map_err(|e| e.to_string())?;
-    let built = model::Model::build(&machine).map_err(|e| e.to_string())?;
+    let built = model::Model::build(machine).map_err(|e| e.to_string())?;
     let signal = model::run(&built, |f| {
         job.set_progress(f);
         !job.cancelled()
     })
     .map_err(|e| e.to_string())?;
-    let (families, _) = compare::machine_families(&machine);
+    let (families, _) = compare::machine_families(machine);
     let machine_families = families.into_iter().filter(|f| f.label == "GMF").collect();
     Ok(SignalEntry { id, signal, origin: Origin::Simulated { preset: preset.into() }, file: None, channels: Vec::new(), machine_families })
 }
@@ -256,13 +255,14 @@ pub fn demo(ids: [u64; 2], labelling: PeakLabelling, job: &JobHandle) -> Result<
     job.send(JobOutput::Analysis(Box::new(analysis)));
     job.check()?;
     job.set_step(format!("simulating machine preset {DEMO_MACHINE}"));
-    let simulated = simulate_preset(ids[1], DEMO_MACHINE, job)?;
+    let machine = model::preset(DEMO_MACHINE).map_err(|e| e.to_string())?;
+    let simulated = simulate_preset(ids[1], &machine, DEMO_MACHINE, job)?;
     job.send(JobOutput::Signal { entry: Box::new(simulated.clone()), replace: None, select: false });
     job.check()?;
     job.set_step("comparing model and measurement");
     job.set_progress(f64::NAN);
     let mut opts = compare_options_for(&chain);
-    opts.fault_frequency_hz = crate::model::preset(DEMO_MACHINE).ok().and_then(|m| crate::compare::diagnose::fault_frequency_hz(&m, &measured.signal));
+    opts.fault_frequency_hz = crate::compare::diagnose::fault_frequency_hz(&machine, &measured.signal);
     let cmp = compare_signals(&measured, &simulated, &opts)?;
     job.send(JobOutput::Comparison(Box::new(cmp)));
     Ok(())
