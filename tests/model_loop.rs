@@ -227,3 +227,27 @@ fn two_hidden_effects_are_found_one_per_round_and_then_nothing_is_missing() {
     assert!(r.ended_clean, "round 3: {}", r.history[2].verdict);
     assert!(r.history[1].envelope_nrmse < r.history[0].envelope_nrmse && r.history[2].envelope_nrmse < r.history[1].envelope_nrmse, "{steps:?}");
 }
+
+/// The gear-base path_modulation + misalignment case of the README's table (seed 2402): a
+/// 0.34 path-modulation depth and a 42.6 N misalignment at 13.8 dB SNR.
+const REPLACEMENT_SEED: u64 = 2402;
+
+#[test]
+fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
+    // Both hidden effects put energy at the shaft rate, and round 1 applies an unbalance that
+    // takes the place of both. Round 2 finds nothing to add but is far above its floor: the
+    // loop must replace the unbalance by the runner-up of round 1 (misalignment), lowering the
+    // objective, and must end without the unbalance.
+    let base = model::preset("mfs_healthy").unwrap();
+    let hide = [EffectKind::PathModulation, EffectKind::Misalignment];
+    let opts = LoopOptions { fit_duration_s: 1.0, evaluations_per_parameter: 7, sweeps: 1, candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment, EffectKind::PathModulation, EffectKind::ExtendedFault], ..Default::default() };
+    let r = hidden::run_multi_case(&base, &hide, REPLACEMENT_SEED, 2.0, 4, &opts).unwrap();
+    let steps: Vec<_> = r.history.iter().map(|h| (h.objective, h.floor_objective, h.change("-"), h.verdict.clone())).collect();
+    eprintln!("true {:?}, SNR {:.1} dB; rounds {steps:#?}", r.true_parameters, r.snr_db);
+    assert_eq!(r.history[0].applied, Some(EffectKind::Unbalance), "round 1: {}", r.history[0].verdict);
+    let i = r.history.iter().position(|h| h.removed.is_some()).unwrap_or_else(|| panic!("no replacement: {steps:#?}"));
+    assert_eq!((r.history[i].removed, r.history[i].applied), (Some(EffectKind::Unbalance), Some(EffectKind::Misalignment)), "{}", r.history[i].verdict);
+    assert!(r.history[i + 1].objective < r.history[i].objective, "{steps:#?}");
+    assert!(r.false_claims.is_empty(), "false claims {:?}", r.false_claims);
+    assert!(r.applied.contains(&EffectKind::Misalignment), "applied {:?}", r.applied);
+}

@@ -623,6 +623,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             seen.push(round.clone());
             let tie = 2.0 * std::f64::consts::SQRT_2 * d.objective_scatter;
             let mut kept: Option<(f64, EffectKind, EffectKind, Machine, Machine, Diagnosis, LoopOptions)> = None;
+            let mut tried: Vec<String> = Vec::new();
             for (a, b) in replacement_candidates(&seen, &current, &opts) {
                 let mut swapped = cal.clone();
                 swapped.effects.disable(a);
@@ -641,6 +642,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 o.refit_effects.push(b);
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
                 let v = reachable_objective(&d2);
+                tried.push(format!("{} in place of {} reaches {v:.2}", b.name(), a.name()));
                 if v < d.calibration.objective_after - tie && kept.as_ref().is_none_or(|k| v < k.0) {
                     kept = Some((v, a, b, swapped, cal2, d2, o));
                 }
@@ -662,6 +664,9 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 pending = Some((cal2, d2));
                 last = Some(d);
                 continue;
+            }
+            if !tried.is_empty() {
+                round.verdict = format!("{}; replacements tried, none below {:.2} by the seed scatter (±{tie:.2}): {}", d.verdict, d.calibration.objective_after, tried.join(", "));
             }
         }
         history.push(round);

@@ -192,7 +192,7 @@ impl ModelLoopView {
                 ui.label(format!("{:.1}", r.objective));
                 ui.label(if r.floor_objective > 0.0 { format!("{:.1}", r.floor_objective) } else { "-".into() }).on_hover_text("objective of the model against realisations of itself: what a perfect model would still score");
                 ui.label(r.effects_on.iter().map(|k| k.name()).collect::<Vec<_>>().join(", "));
-                ui.label(r.applied.map(|k| k.name()).unwrap_or("-"));
+                ui.label(r.change("-"));
                 ui.end_row();
             }
         });
