@@ -240,8 +240,14 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     // objective, and must end without the unbalance.
     let base = model::preset("mfs_healthy").unwrap();
     let hide = [EffectKind::PathModulation, EffectKind::Misalignment];
-    let opts = LoopOptions { fit_duration_s: 1.0, evaluations_per_parameter: 7, sweeps: 1, candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment, EffectKind::PathModulation, EffectKind::ExtendedFault], ..Default::default() };
-    let r = hidden::run_multi_case(&base, &hide, REPLACEMENT_SEED, 2.0, 4, &opts).unwrap();
+    // The table's options and 10 s record. The candidates leave out casing_modes (the
+    // costliest trial), sensor_response and slip, none of which is in the table's top three of
+    // round 1 or 2. Cut further, to the four effects that matter, misalignment joins round 2's
+    // three stage-2 re-fits, which lower the unbalance to 7.9e-4 kg·m, and is applied beside it:
+    // the loop then ends with the unbalance still on (a false claim) but no replacement needed.
+    use EffectKind::*;
+    let opts = LoopOptions { candidates: vec![Unbalance, Misalignment, PathModulation, ExtendedFault, ToothFault, BeltDrive, SpeedFluctuation], ..Default::default() };
+    let r = hidden::run_multi_case(&base, &hide, REPLACEMENT_SEED, 10.0, 3, &opts).unwrap();
     let steps: Vec<_> = r.history.iter().map(|h| (h.objective, h.floor_objective, h.change("-"), h.verdict.clone())).collect();
     eprintln!("true {:?}, SNR {:.1} dB; rounds {steps:#?}", r.true_parameters, r.snr_db);
     assert_eq!(r.history[0].applied, Some(EffectKind::Unbalance), "round 1: {}", r.history[0].verdict);
