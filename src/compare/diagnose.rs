@@ -361,10 +361,10 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     };
     // Stage 1: every candidate, its own parameters fitted and the noise level re-fitted (a
     // transfer-path effect re-does the calibration with it, see [`recalibrates`]).
-    let outcomes: Vec<(EffectKind, Result<(EffectTrial, Machine), String>)> = candidates
+    let outcomes: Vec<(EffectKind, TrialOutcome)> = candidates
         .par_iter()
         .map(|&k| {
-            let run = || -> Result<(EffectTrial, Machine), String> {
+            let run = || -> TrialOutcome {
                 if recalibrates(k) {
                     let mut t = m.clone();
                     t.effects.enable(k);
@@ -426,6 +426,9 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
     Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials }))
 }
+
+/// A stage-1 trial and its fitted machine, or why it could not be run.
+type TrialOutcome = Result<(EffectTrial, Machine), String>;
 
 /// Whether the trial of `k` re-does the calibration with the effect on instead of starting
 /// from the calibrated model. A casing mode reshapes the transfer path — the spectrum the
