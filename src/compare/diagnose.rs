@@ -260,7 +260,7 @@ pub fn objective_scatter(m: &Machine, reference: &Reference, j_own_seed: f64, op
 /// Otherwise the answer is "nothing significant is missing", with the reason.
 pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> (Vec<EffectTrial>, Option<EffectKind>, String) {
     trials.sort_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
-    let tie = 2.0 * std::f64::consts::SQRT_2 * scatter;
+    let tie = tie_width(scatter);
     if let Some(j_best) = trials.first().map(|t| t.objective_after) {
         for t in trials.iter_mut() {
             t.tied_with_best = t.objective_after - j_best < tie;
@@ -273,7 +273,7 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
         return (trials, None, "nothing significant is missing (no effect of the catalogue applies to this machine)".into());
     };
     let improvement = j0 - first.objective_after;
-    let reason = if j0 < (1.0 + opts.floor_margin) * floor {
+    let reason = if !above_floor(j0, floor, opts) {
         Some(format!("the calibrated model is within its own scatter: objective {j0:.2} against a floor of {floor:.2} (the model against realisations of itself)"))
     } else if first.explained < opts.significance {
         Some(format!("best trial: {} explains {:.0} % of the error above the floor, below the {:.0} % threshold", first.effect.name(), first.explained * 100.0, opts.significance * 100.0))
@@ -292,6 +292,18 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
         }
         Some(r) => (trials, None, format!("nothing significant is missing ({r})")),
     }
+}
+
+/// Objectives closer than this to each other are tied: `2√2 σ`, the spread of a difference of
+/// two objectives that each scatter by σ, doubled.
+fn tie_width(scatter: f64) -> f64 {
+    2.0 * std::f64::consts::SQRT_2 * scatter
+}
+
+/// Whether an objective is far enough above its seed floor for anything to be missing:
+/// `j ≥ (1 + floor_margin) × floor`.
+fn above_floor(j: f64, floor: f64, opts: &LoopOptions) -> bool {
+    j >= (1.0 + opts.floor_margin) * floor
 }
 
 /// Calibrates the model, then tries every applicable effect it lacks (in parallel), and ranks
@@ -377,10 +389,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 let mut t = cal_m.clone();
                 t.effects.enable(k);
                 if k == EffectKind::PathModulation {
-                    // A physical default for the unknown modulation rate: the shaft speed.
-                    if let (Some(pm), Some(fr)) = (t.effects.path_modulation.as_mut(), shaft) {
-                        pm.frequency_hz = fr;
-                    }
+                    set_path_modulation_to_shaft_rate(&mut t);
                 }
                 t.validate().map_err(|e| e.to_string())?;
                 let (fm, f) = fit_trial(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, opts, progress).map_err(|e| e.to_string())?;
@@ -463,10 +472,16 @@ pub fn apply_trial(m: &mut Machine, t: &EffectTrial) {
         p.set(m, *v);
     }
     if t.effect == EffectKind::PathModulation {
-        let (_, shaft) = machine_families(m);
-        if let (Some(pm), Some(fr)) = (m.effects.path_modulation.as_mut(), shaft) {
-            pm.frequency_hz = fr;
-        }
+        set_path_modulation_to_shaft_rate(m);
+    }
+}
+
+/// A physical default for the unknown rate of a path modulation just switched on: the shaft
+/// speed. Does nothing if the machine has no path modulation on.
+fn set_path_modulation_to_shaft_rate(m: &mut Machine) {
+    let (_, shaft) = machine_families(m);
+    if let (Some(pm), Some(fr)) = (m.effects.path_modulation.as_mut(), shaft) {
+        pm.frequency_hz = fr;
     }
 }
 
@@ -526,7 +541,7 @@ pub const REPLACEMENT_TRIALS: usize = 2;
 /// `(1 + floor_margin) ×` its seed floor, so something is missing that no single addition
 /// finds.
 fn stuck(d: &Diagnosis, opts: &LoopOptions) -> bool {
-    d.best.is_none() && d.floor_objective > 0.0 && d.calibration.objective_after >= (1.0 + opts.floor_margin) * d.floor_objective
+    d.best.is_none() && d.floor_objective > 0.0 && above_floor(d.calibration.objective_after, d.floor_objective, opts)
 }
 
 /// The replacements worth trying when the loop is stuck, best first, at most
@@ -572,6 +587,17 @@ pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
 /// The best objective a diagnosis reaches: after its chosen effect, or its calibration's.
 fn reachable_objective(d: &Diagnosis) -> f64 {
     d.best.and_then(|k| d.trials.iter().find(|t| t.effect == k)).map(|t| t.objective_after).unwrap_or(d.calibration.objective_after)
+}
+
+/// A replacement the loop keeps: what it reaches, the effect taken out and the one put in, the
+/// new machine, its diagnosis (calibrated machine, diagnosis) and the options it was run with.
+struct Replacement {
+    reaches: f64,
+    removed: EffectKind,
+    added: EffectKind,
+    machine: Machine,
+    diagnosed: (Machine, Diagnosis),
+    opts: LoopOptions,
 }
 
 /// compare → diagnose → apply the best effect (with its fitted parameter) → repeat, for up to
@@ -622,20 +648,16 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             continue;
         }
         if r < rounds && stuck(&d, &opts) {
-            let mut seen = history.clone();
-            seen.push(round.clone());
-            let tie = 2.0 * std::f64::consts::SQRT_2 * d.objective_scatter;
-            let mut kept: Option<(f64, EffectKind, EffectKind, Machine, Machine, Diagnosis, LoopOptions)> = None;
+            let tie = tie_width(d.objective_scatter);
+            let mut kept: Option<Replacement> = None;
             let mut tried: Vec<String> = Vec::new();
-            for (a, b) in replacement_candidates(&seen, &current, &opts) {
+            // The stuck round applied nothing, so the history before it holds every candidate.
+            for (a, b) in replacement_candidates(&history, &current, &opts) {
                 let mut swapped = cal.clone();
                 swapped.effects.disable(a);
                 swapped.effects.enable(b);
                 if b == EffectKind::PathModulation {
-                    let (_, shaft) = machine_families(&swapped);
-                    if let (Some(pm), Some(fr)) = (swapped.effects.path_modulation.as_mut(), shaft) {
-                        pm.frequency_hz = fr;
-                    }
+                    set_path_modulation_to_shaft_rate(&mut swapped);
                 }
                 if swapped.validate().is_err() {
                     continue;
@@ -646,11 +668,11 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
                 let v = reachable_objective(&d2);
                 tried.push(format!("{} in place of {} reaches {v:.2}", b.name(), a.name()));
-                if v < d.calibration.objective_after - tie && kept.as_ref().is_none_or(|k| v < k.0) {
-                    kept = Some((v, a, b, swapped, cal2, d2, o));
+                if v < d.calibration.objective_after - tie && kept.as_ref().is_none_or(|k| v < k.reaches) {
+                    kept = Some(Replacement { reaches: v, removed: a, added: b, machine: swapped, diagnosed: (cal2, d2), opts: o });
                 }
             }
-            if let Some((v, a, b, swapped, cal2, d2, o)) = kept {
+            if let Some(Replacement { reaches: v, removed: a, added: b, machine: swapped, diagnosed: (cal2, d2), opts: o }) = kept {
                 round.verdict = format!(
                     "{}; replacing {} by {} (fitted by the calibration) reaches objective {v:.2} against {:.2}{}",
                     d.verdict,

@@ -208,7 +208,9 @@ impl System {
         if done {
             return Ok(q);
         }
-        let stalled = (q, f);
+        if f.iter().any(|x| !x.is_finite()) {
+            return Err(ModelError::NoEquilibrium("non-finite force".into()));
+        }
         if self.potential_energy(t, q0).is_some() {
             let (q1, _, done) = self.levenberg_marquardt(t, q0, tol_n, true);
             if done {
@@ -219,7 +221,6 @@ impl System {
                 return Ok(q2);
             }
         }
-        let f = stalled.1;
         let worst = f.iter().enumerate().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).map(|(i, v)| (i, *v)).unwrap_or((0, 0.0));
         Err(ModelError::NoEquilibrium(format!(
             "residual {:.3e} N at DOF `{}`; check that every DOF is supported (a bearing or a coupling to ground)",
