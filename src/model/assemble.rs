@@ -5,7 +5,7 @@ use super::bearing::{BearingElement, BearingFault, ContactLaw, DepthProfile, Sha
 use super::effects::NoiseColour;
 use super::error::ModelError;
 use super::gear::{GearMeshElement, MeshStiffness, OrderForce};
-use super::machine::{FaultLocation, Machine};
+use super::machine::{AntiAliasFilter, FaultLocation, Machine};
 use super::system::System;
 use crate::signal::synth;
 use rand_distr::{Distribution, StandardNormal};
@@ -30,6 +30,8 @@ pub struct PostProcessing {
     pub path_modulation: Option<(f64, f64)>,
     /// Measurement noise: (SNR dB, colour).
     pub noise: Option<(f64, NoiseColour)>,
+    /// The recorder's anti-alias filter, applied last (to signal and noise).
+    pub antialias: Option<AntiAliasFilter>,
 }
 
 /// An assembled model, ready to integrate.
@@ -277,6 +279,7 @@ impl Model {
             sensor_response: fx.sensor_response.as_ref().map(|s| (s.bandwidth_hz, s.damping_ratio)),
             path_modulation: fx.path_modulation.as_ref().map(|p| (p.depth, p.frequency_hz)),
             noise: fx.noise.as_ref().map(|n| (n.snr_db, n.colour)),
+            antialias: m.sensor.antialias.clone(),
         };
         q_guess.resize(sys.n(), 0.0);
         Ok(Model { machine: m.clone(), system: sys, sensor, post, q_guess, shaft_speeds_hz: speeds })

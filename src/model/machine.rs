@@ -251,6 +251,23 @@ pub struct Sensor {
     /// Overall gain applied to the output (calibration). Default 1.
     #[serde(default = "one")]
     pub gain: f64,
+    /// The recorder's anti-alias (decimation) filter, applied last, to signal and noise alike.
+    /// Default: none (the decimation from the integration rate is already an ideal low-pass).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub antialias: Option<AntiAliasFilter>,
+}
+
+/// A data recorder's anti-alias filter as its magnitude response: flat to `passband_hz`,
+/// falling to `-stopband_db` at `stopband_hz` (see [`crate::dsp::lowpass::lowpass_gain`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AntiAliasFilter {
+    /// Passband edge, Hz.
+    pub passband_hz: f64,
+    /// Stopband edge, Hz (above the passband edge).
+    pub stopband_hz: f64,
+    /// Attenuation at and above the stopband edge, dB (positive).
+    pub stopband_db: f64,
 }
 
 fn default_unit() -> String {
@@ -486,6 +503,17 @@ impl Machine {
         }
         if !matches!(self.sensor.unit.as_str(), "m/s^2" | "g") {
             return Err(self.invalid("sensor.unit", &self.sensor.unit, "use \"m/s^2\" or \"g\""));
+        }
+        if let Some(a) = &self.sensor.antialias {
+            if !(a.passband_hz.is_finite() && a.passband_hz > 0.0 && a.passband_hz < self.fs_hz / 2.0) {
+                return Err(self.invalid("sensor.antialias.passband_hz", a.passband_hz, format!("must be in (0, {}) Hz (Nyquist at fs_hz = {})", self.fs_hz / 2.0, self.fs_hz)));
+            }
+            if !(a.stopband_hz.is_finite() && a.stopband_hz > a.passband_hz) {
+                return Err(self.invalid("sensor.antialias.stopband_hz", a.stopband_hz, format!("must exceed passband_hz = {}", a.passband_hz)));
+            }
+            if !(a.stopband_db.is_finite() && a.stopband_db > 0.0) {
+                return Err(self.invalid("sensor.antialias.stopband_db", a.stopband_db, "must be a positive attenuation in dB"));
+            }
         }
         self.effects.validate(self)?;
         Ok(())

@@ -24,7 +24,7 @@ pub use bearing::{BearingElement, BearingFault, ContactLaw, DepthProfile, ShaftM
 pub use effects::*;
 pub use error::ModelError;
 pub use gear::{GearMeshElement, MeshStiffness, OrderForce};
-pub use machine::{Bearing, Coupling, DrivenBy, FaultLocation, GearPairSpec, LocalFault, Machine, Sensor, Shaft};
+pub use machine::{AntiAliasFilter, Bearing, Coupling, DrivenBy, FaultLocation, GearPairSpec, LocalFault, Machine, Sensor, Shaft};
 pub use simulate::{coloured_noise, post_process, run, sensor_lowpass, Simulator, StepResult};
 pub use system::{ForceElement, Spring, System};
 

@@ -219,7 +219,7 @@ pub fn run(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Signa
 }
 
 /// Applies the measurement effects in physical order: accelerometer response, then the
-/// transmission-path modulation, then additive noise.
+/// transmission-path modulation, then additive noise, then the recorder's anti-alias filter.
 pub fn post_process(x: &[f64], fs_hz: f64, post: &PostProcessing, seed: u64) -> Vec<f64> {
     let mut y = x.to_vec();
     if let Some((bw, zeta)) = post.sensor_response {
@@ -235,6 +235,12 @@ pub fn post_process(x: &[f64], fs_hz: f64, post: &PostProcessing, seed: u64) -> 
         let std = rms * 10f64.powf(-snr_db / 20.0);
         let noise = coloured_noise(y.len(), std, colour, seed.wrapping_add(0x5EED));
         y.iter_mut().zip(noise).for_each(|(a, b)| *a += b);
+    }
+    if let Some(a) = &post.antialias {
+        // Parameters are validated with the machine; a record too short to filter stays as is.
+        if let Ok(f) = crate::dsp::lowpass::fourier_lowpass(&y, fs_hz, a.passband_hz, a.stopband_hz, a.stopband_db) {
+            y = f;
+        }
     }
     y
 }
