@@ -584,9 +584,13 @@ pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
     on
 }
 
-/// The best objective a diagnosis reaches: after its chosen effect, or its calibration's.
-fn reachable_objective(d: &Diagnosis) -> f64 {
-    d.best.and_then(|k| d.trials.iter().find(|t| t.effect == k)).map(|t| t.objective_after).unwrap_or(d.calibration.objective_after)
+/// The lowest objective a model reaches with at most one more effect: its calibrated
+/// objective `j_cal`, or its best trial's, whether that trial was significant or not. A stuck
+/// model and a replacement are compared on this, so both get the same one addition (counting
+/// it only where it was significant would give the replacement an effect the stuck model is
+/// denied).
+fn reachable_objective(j_cal: f64, trials: &[EffectTrial]) -> f64 {
+    trials.iter().map(|t| t.objective_after).fold(j_cal, f64::min)
 }
 
 /// A replacement the loop keeps: what it reaches, the effect taken out and the one put in, the
@@ -611,9 +615,10 @@ struct Replacement {
 /// above `(1 + floor_margin) ×` its floor, and a round is left, the loop tries replacing an
 /// applied effect by a runner-up of the round that applied it ([`replacement_candidates`]):
 /// each candidate model (the applied effect off, the runner-up on and fitted by the
-/// calibration) gets a full diagnosis. The replacement is kept if what that diagnosis reaches
-/// (after its own best addition, if any) is below the stuck objective by more than the seed
-/// scatter (`2√2 σ`, as ties in [`decide`]); the round records it (`removed`, `applied`) and
+/// calibration) gets a full diagnosis. The replacement is kept if what it reaches with its best
+/// one addition is below what the stuck model reaches with its own best one addition
+/// ([`reachable_objective`]: significant or not) by more than the seed scatter (`2√2 σ`, as
+/// ties in [`decide`]); the round records it (`removed`, `applied`) and
 /// the next round starts from that diagnosis.
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     let reference = Reference::new(measured, &opts.compare)?;
@@ -649,6 +654,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
         }
         if r < rounds && stuck(&d, &opts) {
             let tie = tie_width(d.objective_scatter);
+            let stuck_reaches = reachable_objective(d.calibration.objective_after, &d.trials);
             let mut kept: Option<Replacement> = None;
             let mut tried: Vec<String> = Vec::new();
             // The stuck round applied nothing, so the history before it holds every candidate.
@@ -666,20 +672,18 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 o.refit_effects.retain(|k| *k != a);
                 o.refit_effects.push(b);
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
-                let v = reachable_objective(&d2);
+                let v = reachable_objective(d2.calibration.objective_after, &d2.trials);
                 tried.push(format!("{} in place of {} reaches {v:.2}", b.name(), a.name()));
-                if v < d.calibration.objective_after - tie && kept.as_ref().is_none_or(|k| v < k.reaches) {
+                if v < stuck_reaches - tie && kept.as_ref().is_none_or(|k| v < k.reaches) {
                     kept = Some(Replacement { reaches: v, removed: a, added: b, machine: swapped, diagnosed: (cal2, d2), opts: o });
                 }
             }
             if let Some(Replacement { reaches: v, removed: a, added: b, machine: swapped, diagnosed: (cal2, d2), opts: o }) = kept {
                 round.verdict = format!(
-                    "{}; replacing {} by {} (fitted by the calibration) reaches objective {v:.2} against {:.2}{}",
+                    "{}; replacing {} by {} (fitted by the calibration) reaches objective {v:.2} against {stuck_reaches:.2}, each with its best one addition",
                     d.verdict,
                     a.name(),
                     b.name(),
-                    d.calibration.objective_after,
-                    d2.best.map(|k| format!(" after adding {} next", k.name())).unwrap_or_default()
                 );
                 round.applied = Some(b);
                 round.removed = Some(a);
@@ -691,7 +695,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 continue;
             }
             if !tried.is_empty() {
-                round.verdict = format!("{}; replacements tried, none below {:.2} by the seed scatter (±{tie:.2}): {}", d.verdict, d.calibration.objective_after, tried.join(", "));
+                round.verdict = format!("{}; replacements tried, none below {stuck_reaches:.2} (this model with its best one addition) by the seed scatter (±{tie:.2}): {}", d.verdict, tried.join(", "));
             }
         }
         history.push(round);
@@ -840,4 +844,14 @@ mod tests {
         assert_eq!(replacement_candidates(&h, &m, &opts), vec![]);
     }
 
+    #[test]
+    fn a_stuck_model_and_a_replacement_each_get_their_best_one_addition() {
+        use EffectKind::*;
+        // Nothing significant: the best trial still counts (16.1 < 17.9).
+        let stuck = vec![trial(CasingModes, 17.9, 3.3, 16.1, 0.5), trial(Slip, 17.9, 3.3, 17.5, 0.1)];
+        assert_eq!(reachable_objective(17.9, &stuck), 16.1);
+        // A trial worse than the calibrated model is no addition.
+        assert_eq!(reachable_objective(17.9, &[trial(ExtendedFault, 17.9, 3.3, 19.0, 0.2)]), 17.9);
+        assert_eq!(reachable_objective(17.9, &[]), 17.9);
+    }
 }
