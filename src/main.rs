@@ -494,7 +494,10 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     let cal = &last.calibration;
     println!("calibration ({} evaluations): envelope NRMSE {:.1} % → {:.1} %; objective {:.1} → {:.1}; gain {:.3}", cal.evaluations, cal.envelope_nrmse_before, cal.envelope_nrmse_after, cal.objective_before, cal.objective_after, cal.gain);
     for (p, v) in &cal.parameters {
-        println!("  {} = {:.6}", p.name(), v);
+        match cal.at_bound.iter().find(|b| b.0 == *p) {
+            Some((_, lo, hi)) => println!("  {} = {:.6}   <- at the edge of its range {lo:.3e} – {hi:.3e}: not estimated; a parameter pushed this far may stand in for a missing effect", p.name(), v),
+            None => println!("  {} = {:.6}", p.name(), v),
+        }
     }
     println!("\nwhere the calibrated model fails (envelope, share of squared error):");
     for (f, s) in last.residual_map.envelope_families.iter().take(6) {

@@ -419,6 +419,23 @@ pub struct Fit {
     /// NRMSE (%) per domain before and after: (domain, before, after).
     #[serde(default)]
     pub domains: Vec<(String, f64, f64)>,
+    /// Parameters fitted over their full range that ended at an edge of the range searched
+    /// from their starting value (or beyond it, after several sweeps; see
+    /// [`at_search_bound`]), with that range `(low, high)`.
+    #[serde(default)]
+    pub at_bound: Vec<(Param, f64, f64)>,
+}
+
+/// Whether `x` ended within 2 % of the search range `[lo, hi]` (measured on the search scale,
+/// logarithmic or linear) of either edge. A calibrated parameter pinned there is not
+/// estimated: the optimiser pushed it as far as allowed, which is how a parameter bends to
+/// stand in for a missing effect (a fault depth driven to its floor while a hidden casing mode
+/// and misalignment shape the spectrum).
+pub fn at_search_bound(x: f64, lo: f64, hi: f64, log: bool) -> bool {
+    let s = |v: f64| if log { v.max(1e-300).ln() } else { v };
+    let (a, b) = (s(lo), s(hi));
+    let u = (s(x) - a) / (b - a);
+    b > a && !(0.02..=0.98).contains(&u)
 }
 
 /// Golden-section search of `f` over `[a, b]` with `evals` evaluations, starting bracket known
@@ -568,6 +585,14 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
         }
     }
     let fitted: Vec<(Param, f64)> = searches.iter().filter_map(|(p, _)| p.get(&best_m).map(|v| (*p, v))).collect();
+    let at_bound = searches
+        .iter()
+        .filter(|(_, local)| !local)
+        .filter_map(|&(p, _)| {
+            let (lo, hi, log) = p.bounds(m);
+            p.get(&best_m).filter(|&v| at_search_bound(v, lo, hi, log)).map(|_| (p, lo, hi))
+        })
+        .collect();
     Ok((
         best_m,
         Fit {
@@ -579,6 +604,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
             envelope_nrmse_after: best_c.envelope_nrmse(),
             evaluations: evals,
             domains: domain_pairs(&c0, &best_c),
+            at_bound,
         },
     ))
 }
@@ -610,4 +636,22 @@ pub fn calibration_parameters_for(m: &Machine, opts: &LoopOptions) -> Vec<Param>
         }
     }
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_parameter_pinned_at_an_edge_of_its_range_is_flagged() {
+        // Fault depth 5.28 µm in 5–300 µm (log scale): 1.3 % of the range above the floor.
+        assert!(at_search_bound(5.28e-6, 5e-6, 3e-4, true));
+        assert!(at_search_bound(2.9e-4, 5e-6, 3e-4, true));
+        assert!(!at_search_bound(1e-4, 5e-6, 3e-4, true));
+        // Linear scale: noise SNR in −10…40 dB.
+        assert!(at_search_bound(-9.5, -10.0, 40.0, false));
+        assert!(!at_search_bound(-8.0, -10.0, 40.0, false));
+        // Beyond the range (a later sweep moved the bracket) counts as at the edge.
+        assert!(at_search_bound(4000.0, 1820.0, 3640.0, true));
+    }
 }

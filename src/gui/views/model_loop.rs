@@ -232,6 +232,11 @@ impl ModelLoopView {
                 *cmd = Some(Command::UseCalibrated);
             }
         });
+        if !cal.at_bound.is_empty() {
+            let names: Vec<&str> = cal.at_bound.iter().map(|b| b.0.name()).collect();
+            ui.colored_label(ui.visuals().warn_fg_color, format!("at the edge of its search range (not estimated; may stand in for a missing effect): {}", names.join(", ")))
+                .on_hover_text(cal.at_bound.iter().map(|(p, lo, hi)| format!("{}: range {} – {}", p.name(), fmt_num(*lo), fmt_num(*hi))).collect::<Vec<_>>().join("\n"));
+        }
         let current = session.model.machine == r.started_from;
         egui::ScrollArea::both().id_salt("ranking-scroll").show(ui, |ui| {
             egui::Grid::new("ranking").striped(true).num_columns(5).show(ui, |ui| {
