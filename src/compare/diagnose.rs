@@ -130,8 +130,22 @@ pub fn fault_frequency_hz(m: &Machine, measured: &Signal) -> Option<f64> {
     Some(f * speed_ratio)
 }
 
-/// What in the residual map speaks for an effect, in words, with the share it carries.
-fn evidence(k: EffectKind, map: &ResidualMap) -> (String, f64) {
+/// What in the residual map speaks for an effect, in words, with the share it carries. For a
+/// casing mode, `mode_hz` is the frequency its trial fitted: the evidence is the PSD band at
+/// that frequency (the mode cannot explain a band it does not sit in), or, before a fit, the
+/// band where the model is weakest.
+fn evidence(k: EffectKind, map: &ResidualMap, mode_hz: Option<f64>) -> (String, f64) {
+    if let (EffectKind::CasingModes, Some(f)) = (k, mode_hz) {
+        let band = map.items.iter().filter(|i| i.kind == "psd_band").min_by(|a, b| (a.frequency_hz - f).abs().total_cmp(&(b.frequency_hz - f).abs()));
+        return match band {
+            Some(i) if i.simulated < i.measured => (
+                format!("PSD band {} {:+.1} dB in the model, where the mode was fitted ({f:.0} Hz); it carries {:.0} % of the PSD error", i.label, i.simulated - i.measured, i.share_percent),
+                i.share_percent,
+            ),
+            Some(i) => (format!("the mode was fitted at {f:.0} Hz, where the model's PSD is not below the measurement's (band {} {:+.1} dB)", i.label, i.simulated - i.measured), 0.0),
+            None => ("no PSD bands in the residual map".into(), 0.0),
+        };
+    }
     let env_items = |pred: &dyn Fn(&str) -> bool| -> (f64, Option<String>) {
         let share: f64 = map.envelope_families.iter().filter(|(f, _)| pred(f)).map(|(_, s)| s).sum();
         let top = map.items.iter().find(|i| i.kind == "envelope_line" && pred(&i.family)).map(|i| format!("{} ({:.1} Hz): {}", i.label, i.frequency_hz, i.note));
@@ -365,7 +379,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         let extra: Vec<(Param, f64)> = Param::of_effect(k).iter().chain(released.iter()).filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(fm).map(|v| (*p, v))).collect();
         let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
         let explained = if excess > 0.0 { (j0 - j) / excess } else { 0.0 };
-        let (ev, ev_share) = evidence(k, &map);
+        let (ev, ev_share) = evidence(k, &map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None });
         let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
         let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
         let summary = format!("{ev}; adding {}{pv} changes envelope NRMSE from {env0:.1} % to {env:.1} % (objective {j0:.1} → {j:.1})", k.name());
@@ -853,5 +867,32 @@ mod tests {
         // A trial worse than the calibrated model is no addition.
         assert_eq!(reachable_objective(17.9, &[trial(ExtendedFault, 17.9, 3.3, 19.0, 0.2)]), 17.9);
         assert_eq!(reachable_objective(17.9, &[]), 17.9);
+    }
+
+    #[test]
+    fn a_casing_modes_evidence_is_the_band_its_mode_was_fitted_in() {
+        let band = |lo: f64, measured: f64, simulated: f64, share_percent: f64| crate::compare::residual::ResidualItem {
+            kind: "psd_band".into(),
+            family: "PSD band".into(),
+            label: format!("{lo:.0}–{:.0} Hz", lo + 375.0),
+            frequency_hz: lo + 187.5,
+            share_percent,
+            measured,
+            simulated,
+            note: String::new(),
+        };
+        let map = ResidualMap { items: vec![band(3000.0, -60.0, -79.4, 56.0), band(375.0, -50.0, -48.0, 3.0), band(750.0, -55.0, -61.0, 9.0)], envelope_families: vec![] };
+        // Before a fit: the band where the model is weakest.
+        let (text, share) = evidence(EffectKind::CasingModes, &map, None);
+        assert!(text.starts_with("PSD band 3000–3375 Hz -19.4 dB"), "{text}");
+        assert_eq!(share, 65.0);
+        // A mode fitted at 479 Hz sits where the model is not weak: no evidence.
+        let (text, share) = evidence(EffectKind::CasingModes, &map, Some(479.0));
+        assert!(text.contains("fitted at 479 Hz") && text.contains("375–750 Hz +2.0 dB"), "{text}");
+        assert_eq!(share, 0.0);
+        // A mode fitted at 3.2 kHz: that band's deficit and share.
+        let (text, share) = evidence(EffectKind::CasingModes, &map, Some(3200.0));
+        assert!(text.contains("3000–3375 Hz -19.4 dB") && text.contains("(3200 Hz)"), "{text}");
+        assert_eq!(share, 56.0);
     }
 }
