@@ -445,3 +445,55 @@ fn model_loop_history_shows_the_floor() {
     assert!(h.query_by_label("61.2").is_some() && h.query_by_label("12.8").is_some(), "both objectives are shown");
     assert!(h.query_all_by_label("-").count() >= 2, "round 2 has no floor (and nothing applied)");
 }
+
+/// When a search finds nothing significant while the model is still well above its floor, the
+/// view offers to replace an effect added earlier by a runner-up of the round that added it
+/// (the loop's replacement step, by hand); the click swaps them in the calibrated machine,
+/// records the swap on the stuck round and searches the new model.
+#[test]
+fn model_loop_offers_a_replacement_when_stuck() {
+    use twinscope::compare::{Diagnosis, Fit, LoopOptions, Round};
+    use twinscope::gui::session::LoopResult;
+    use twinscope::model::EffectKind::{self, *};
+    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], tab: Some("model".into()), ..Default::default() });
+    {
+        let s = &mut h.state_mut().settings;
+        s.loop_fit_duration_s = 0.3;
+        s.loop_evaluations_per_parameter = 3;
+        s.loop_sweeps = 1;
+        s.loop_candidates = vec![LoadZone];
+    }
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    // Round 1 added an unbalance (66 % explained; misalignment 63 %, slip 10 %); round 2's
+    // search on the model with it found nothing significant at 4 x its floor.
+    let mut m = h.state().session.model.machine.clone();
+    m.effects.enable(Unbalance);
+    let round = |n: usize, ranking: Vec<(EffectKind, f64, f64)>, applied: Option<EffectKind>| Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 5.0, objective: 8.0, floor_objective: 2.0, verdict: "v".into(), ranking, applied, removed: None };
+    let name = h.state().session.signals[0].signal.name.clone();
+    {
+        let model = &mut h.state_mut().session.model;
+        model.replace_machine(m.clone());
+        model.history = vec![round(1, vec![(Unbalance, 9.0, 0.66), (Misalignment, 9.2, 0.63), (Slip, 11.0, 0.10)], Some(Unbalance)), round(2, vec![], None)];
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, verdict: "nothing significant is missing".into(), ..Default::default() };
+        model.result = Some(LoopResult { measured: name, options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0 });
+    }
+    h.run_steps(3);
+    assert!(h.query_by_label("Try slip in place of unbalance").is_none(), "slip explained 10 %, under the significance threshold");
+    let button = h.get_by_label("Try misalignment in place of unbalance");
+    assert!(!button.accesskit_node().is_disabled());
+    button.click();
+    h.run_steps(2);
+    let model = &h.state().session.model;
+    assert!(!model.machine.effects.is_on(Unbalance) && model.machine.effects.is_on(Misalignment), "swapped: {:?}", model.machine.effects.enabled());
+    assert_eq!((model.history[1].removed, model.history[1].applied), (Some(Unbalance), Some(Misalignment)));
+    assert!(h.state().worker.busy(), "the new model is searched");
+    wait_for(&mut h, "the search of the swapped model", 600, |a| !a.worker.busy());
+    let s = h.state();
+    assert!(s.session.last_error().is_none(), "errors: {:?}", s.session.last_error());
+    let h3 = &s.session.model.history;
+    assert_eq!(h3.len(), 3, "the swapped model's search is round 3");
+    assert!(h3[2].effects_on.contains(&Misalignment) && !h3[2].effects_on.contains(&Unbalance));
+    assert!(h3[2].objective.is_finite() && h3[2].ranking.iter().any(|x| x.0 == LoadZone), "the search ran: {:?}", h3[2]);
+    assert!(h.query_by_label("misalignment in place of unbalance").is_some(), "the rounds table says what changed");
+}

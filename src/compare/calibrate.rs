@@ -402,7 +402,7 @@ pub fn fit_evaluations(m: &Machine, params: &[Param], sweeps: usize, opts: &Loop
 }
 
 /// Result of fitting.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Fit {
     /// Fitted parameter values.
     pub parameters: Vec<(Param, f64)>,

@@ -50,7 +50,7 @@ pub struct EffectTrial {
 }
 
 /// The answer of [`diagnose`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct Diagnosis {
     /// The calibration done first.
     pub calibration: Fit,
@@ -583,6 +583,30 @@ pub fn replacement_candidates(history: &[Round], current: &Machine, opts: &LoopO
     pairs.into_iter().take(REPLACEMENT_TRIALS).map(|p| (p.1, p.2)).collect()
 }
 
+/// The replacements to offer after diagnosis `d` of `current` (see [`run_loop`]): when `d` is
+/// stuck (nothing significant to add, objective still ≥ `(1 + floor_margin) ×` its floor),
+/// [`replacement_candidates`] of the history; otherwise none. The desktop app offers these.
+pub fn replacement_proposals(history: &[Round], current: &Machine, d: &Diagnosis, opts: &LoopOptions) -> Vec<(EffectKind, EffectKind)> {
+    if stuck(d, opts) {
+        replacement_candidates(history, current, opts)
+    } else {
+        Vec::new()
+    }
+}
+
+/// `m` with effect `a` switched off and `b` on (with its default parameters, a path
+/// modulation at the shaft rate), validated: the model a replacement starts from.
+pub fn swap_effect(m: &Machine, a: EffectKind, b: EffectKind) -> Result<Machine, crate::model::ModelError> {
+    let mut swapped = m.clone();
+    swapped.effects.disable(a);
+    swapped.effects.enable(b);
+    if b == EffectKind::PathModulation {
+        set_path_modulation_to_shaft_rate(&mut swapped);
+    }
+    swapped.validate()?;
+    Ok(swapped)
+}
+
 /// The effects a loop's history leaves applied, in the order applied: every round's `applied`
 /// less those a later round `removed`.
 pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
@@ -603,7 +627,7 @@ pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
 /// model and a replacement are compared on this, so both get the same one addition (counting
 /// it only where it was significant would give the replacement an effect the stuck model is
 /// denied).
-fn reachable_objective(j_cal: f64, trials: &[EffectTrial]) -> f64 {
+pub fn reachable_objective(j_cal: f64, trials: &[EffectTrial]) -> f64 {
     trials.iter().map(|t| t.objective_after).fold(j_cal, f64::min)
 }
 
@@ -673,15 +697,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             let mut tried: Vec<String> = Vec::new();
             // The stuck round applied nothing, so the history before it holds every candidate.
             for (a, b) in replacement_candidates(&history, &current, &opts) {
-                let mut swapped = cal.clone();
-                swapped.effects.disable(a);
-                swapped.effects.enable(b);
-                if b == EffectKind::PathModulation {
-                    set_path_modulation_to_shaft_rate(&mut swapped);
-                }
-                if swapped.validate().is_err() {
-                    continue;
-                }
+                let Ok(swapped) = swap_effect(&cal, a, b) else { continue };
                 let mut o = opts.clone();
                 o.refit_effects.retain(|k| *k != a);
                 o.refit_effects.push(b);

@@ -252,6 +252,7 @@ impl Workbench {
             Command::SimulateModel { measured } => self.simulate_model(measured),
             Command::FindMissingEffect { measured } => self.find_missing_effect(measured),
             Command::AddTrial { effect, measured } => self.add_trial(effect, measured),
+            Command::ReplaceEffect { remove, add, measured } => self.replace_effect(remove, add, measured),
             Command::ComputeScf { source, params } => self.compute_scf(source, params),
             Command::Dialog(purpose) => self.dialog(purpose),
             Command::SaveSession(p) => match SessionFile::from_session(&self.session).save(&p) {
@@ -354,6 +355,31 @@ impl Workbench {
             job.send(JobOutput::Loop(Box::new(r)));
             Ok(())
         });
+    }
+
+    /// The loop's replacement step, by hand: `add` in place of `remove` in the calibrated
+    /// machine of the last search, recorded on the stuck round, then a new search.
+    fn replace_effect(&mut self, remove: crate::model::EffectKind, add: crate::model::EffectKind, measured: usize) {
+        let Some(r) = self.session.model.result.as_ref() else {
+            self.session.tell(Level::Error, "no ranking yet: run Find missing effect first");
+            return;
+        };
+        let m = match crate::compare::diagnose::swap_effect(&r.calibrated, remove, add) {
+            Ok(m) => m,
+            Err(e) => {
+                self.session.tell(Level::Error, format!("{} in place of {} not tried: {e}", add.name(), remove.name()));
+                return;
+            }
+        };
+        let model = &mut self.session.model;
+        let stuck_round = model.history.last().map(|x| x.round).unwrap_or(0);
+        if let Some(last) = model.history.last_mut() {
+            last.applied = Some(add);
+            last.removed = Some(remove);
+        }
+        model.replace_machine(m);
+        self.session.tell(Level::Info, format!("{} in place of {}: searching the new model; compare its objective with round {stuck_round}'s", add.name(), remove.name()));
+        self.find_missing_effect(measured);
     }
 
     fn add_trial(&mut self, effect: crate::model::EffectKind, measured: Option<usize>) {

@@ -63,6 +63,9 @@ pub enum Command {
     FindMissingEffect { measured: usize },
     /// Model loop: apply a ranked trial to the calibrated machine, re-simulate and re-compare.
     AddTrial { effect: EffectKind, measured: Option<usize> },
+    /// Model loop, when stuck: switch `remove` off and `add` on in the calibrated machine and
+    /// search again against `measured`.
+    ReplaceEffect { remove: EffectKind, add: EffectKind, measured: usize },
     /// Compute the SCF of the selected signal (`raw`) or of a time-domain stage of the last run.
     ComputeScf { source: String, params: ScfParams },
     /// Open a file dialog for a purpose (sessions, exports).

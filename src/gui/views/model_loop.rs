@@ -232,12 +232,32 @@ impl ModelLoopView {
                 *cmd = Some(Command::UseCalibrated);
             }
         });
+        let current = session.model.machine == r.started_from;
+        let proposals = if current { crate::compare::diagnose::replacement_proposals(&session.model.history, &session.model.machine, d, &r.options) } else { Vec::new() };
+        if !proposals.is_empty() {
+            let reach = crate::compare::diagnose::reachable_objective(cal.objective_after, &d.trials);
+            ui.horizontal_wrapped(|ui| {
+                ui.label(format!("Stuck at {:.1} x the floor with nothing significant to add: an effect added earlier may stand in for another.", cal.objective_after / d.floor_objective));
+                for (a, b) in proposals {
+                    let button = ui.add_enabled(measured.is_some(), egui::Button::new(format!("Try {} in place of {}", b.name(), a.name())));
+                    let hover = format!(
+                        "switch {} off and {} on in the calibrated model, then Find missing effect on it; the replacement is better if its objective with its best addition is below {reach:.2} (this model with its best addition) by more than the seed scatter",
+                        a.name(),
+                        b.name()
+                    );
+                    if button.on_hover_text(hover).on_disabled_hover_text("choose a measured signal").clicked() {
+                        if let Some(m) = measured {
+                            *cmd = Some(Command::ReplaceEffect { remove: a, add: b, measured: m });
+                        }
+                    }
+                }
+            });
+        }
         if !cal.at_bound.is_empty() {
             let names: Vec<&str> = cal.at_bound.iter().map(|b| b.0.name()).collect();
             ui.colored_label(ui.visuals().warn_fg_color, format!("at the edge of its search range (not estimated; may stand in for a missing effect): {}", names.join(", ")))
                 .on_hover_text(cal.at_bound.iter().map(|(p, lo, hi)| format!("{}: range {} – {}", p.name(), fmt_num(*lo), fmt_num(*hi))).collect::<Vec<_>>().join("\n"));
         }
-        let current = session.model.machine == r.started_from;
         egui::ScrollArea::both().id_salt("ranking-scroll").show(ui, |ui| {
             egui::Grid::new("ranking").striped(true).num_columns(5).show(ui, |ui| {
                 for hdr in ["effect", "objective", "envelope NRMSE", "reduction", ""] {
