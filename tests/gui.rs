@@ -251,6 +251,22 @@ fn scf_view_shows_surface_colour_scale_and_slices() {
     assert!(!labels_containing(&h, "slice at the grid α nearest 162.").is_empty(), "{:?}", labels_containing(&h, "slice at"));
 }
 
+/// The workbench on the model view with CWRU 105 loaded and quick search settings (0.3 s fits,
+/// 3 evaluations per parameter, one sweep, the given candidates).
+fn model_loop_on_105(candidates: Vec<twinscope::model::EffectKind>) -> Harness<'static, Workbench> {
+    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], tab: Some("model".into()), ..Default::default() });
+    {
+        let s = &mut h.state_mut().settings;
+        s.loop_fit_duration_s = 0.3;
+        s.loop_evaluations_per_parameter = 3;
+        s.loop_sweeps = 1;
+        s.loop_candidates = candidates;
+    }
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    h
+}
+
 /// The model loop with a fast search (0.3 s fits, 3 evaluations per parameter, one sweep, two
 /// candidate effects): Find missing effect ranks both with before → after numbers and a
 /// verdict; Add switches the ranked effect on with its fitted parameters, re-simulates and
@@ -258,16 +274,7 @@ fn scf_view_shows_surface_colour_scale_and_slices() {
 #[test]
 fn model_loop_finds_ranks_and_adds_an_effect() {
     use twinscope::model::EffectKind;
-    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], tab: Some("model".into()), ..Default::default() });
-    {
-        let s = &mut h.state_mut().settings;
-        s.loop_fit_duration_s = 0.3;
-        s.loop_evaluations_per_parameter = 3;
-        s.loop_sweeps = 1;
-        s.loop_candidates = vec![EffectKind::LoadZone, EffectKind::Slip];
-    }
-    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
-    idle(&mut h, "loading", 60);
+    let mut h = model_loop_on_105(vec![EffectKind::LoadZone, EffectKind::Slip]);
     assert_eq!(h.state().session.model.preset, "cwru_6205_inner");
     assert!(h.query_by_label("Find missing effect").is_some());
     assert!(h.query_by_label("No rounds yet: Find missing effect starts round 1.").is_some());
@@ -455,16 +462,7 @@ fn model_loop_offers_a_replacement_when_stuck() {
     use twinscope::compare::{Diagnosis, Fit, LoopOptions, Round};
     use twinscope::gui::session::LoopResult;
     use twinscope::model::EffectKind::{self, *};
-    let mut h = harness(StartOptions { files: vec![sample("105_de_inner_007_0hp_12k.mat")], tab: Some("model".into()), ..Default::default() });
-    {
-        let s = &mut h.state_mut().settings;
-        s.loop_fit_duration_s = 0.3;
-        s.loop_evaluations_per_parameter = 3;
-        s.loop_sweeps = 1;
-        s.loop_candidates = vec![LoadZone];
-    }
-    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
-    idle(&mut h, "loading", 60);
+    let mut h = model_loop_on_105(vec![LoadZone]);
     // Round 1 added an unbalance (66 % explained; misalignment 63 %, slip 10 %); round 2's
     // search on the model with it found nothing significant at 4 x its floor.
     let mut m = h.state().session.model.machine.clone();
