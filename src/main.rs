@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use twinscope::batch::{self, Progress};
+use twinscope::compare::LoopOptions;
 use twinscope::kinematics::{catalogue, lookup_bearing};
 use twinscope::signal::io;
 
@@ -127,6 +128,11 @@ enum Command {
         /// Write the final machine (with the applied effects) as TOML.
         #[arg(long)]
         save_machine: Option<PathBuf>,
+        /// When the calibration pins a parameter at the edge of its range, start every trial
+        /// from the uncalibrated values (grid scan of the effect, then one calibration sweep):
+        /// slower, for a model the calibration bent to stand in for what is missing.
+        #[arg(long)]
+        unbend_pinned: bool,
     },
     /// Hidden-effect evaluation: for each effect, simulate a "measurement" with it hidden
     /// (random parameters, perturbed baseline, SNR 0–20 dB), diagnose the model without it, and
@@ -161,6 +167,11 @@ enum Command {
         /// cases, or, with `--hide`, `{"single": [...], "multi": [...]}`.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// When the calibration pins a parameter at the edge of its range, start every trial
+        /// from the uncalibrated values (grid scan of the effect, then one calibration sweep):
+        /// slower, for a model the calibration bent to stand in for what is missing.
+        #[arg(long)]
+        unbend_pinned: bool,
     },
     /// Simulate a machine (TOML, or a bundled preset) and write the sensor signal (.wav or .csv).
     Simulate {
@@ -224,8 +235,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, fit_duration_s, json.as_deref(), save_machine.as_deref(), cli.quiet),
-        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, json }) => confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, json.as_deref()),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine, unbend_pinned }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, LoopOptions { fit_duration_s, unbend_pinned, ..Default::default() }, json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, json, unbend_pinned }) => confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, json.as_deref(), LoopOptions { unbend_pinned, ..Default::default() }),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => open_workbench(cli.view, cli.open, !cli.no_demo, cli.find_missing_effect, cli.export_png),
     }
@@ -457,8 +468,8 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
 }
 
 #[allow(clippy::too_many_arguments)]
-fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], rounds: usize, fit_duration_s: f64, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
-    use twinscope::compare::{self, LoopOptions};
+fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], rounds: usize, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
+    use twinscope::compare;
     use twinscope::model::{self, Machine};
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
     let mut m = match (machine, preset) {
@@ -470,8 +481,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         m.effects.enable(twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
     }
     m.validate()?;
-    let mut opts = LoopOptions { fit_duration_s, ..Default::default() };
-    anyhow::ensure!(fit_duration_s.is_finite() && fit_duration_s >= 0.2, "--fit-duration-s must be at least 0.2 s");
+    anyhow::ensure!(opts.fit_duration_s.is_finite() && opts.fit_duration_s >= 0.2, "--fit-duration-s must be at least 0.2 s");
     if let Some(b) = band_hz {
         anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz");
         opts.compare.envelope_band_hz = [b[0], b[1]];
@@ -498,6 +508,11 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             Some((_, lo, hi)) => println!("  {} = {:.6}   <- at the edge of its range {lo:.3e} – {hi:.3e}: not estimated; a parameter pushed this far may stand in for a missing effect", p.name(), v),
             None => println!("  {} = {:.6}", p.name(), v),
         }
+    }
+    if last.unbent {
+        println!("  the trials started from the uncalibrated values (--unbend-pinned), not from this bent calibration");
+    } else if !cal.at_bound.is_empty() {
+        println!("  (--unbend-pinned starts the trials from the uncalibrated values instead)");
     }
     println!("\nwhere the calibrated model fails (envelope, share of squared error):");
     for (f, s) in last.residual_map.envelope_families.iter().take(6) {
@@ -542,8 +557,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
 }
 
 #[allow(clippy::too_many_arguments)]
-fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, json: Option<&Path>) -> Result<()> {
-    use twinscope::compare::{hidden, LoopOptions};
+fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
+    use twinscope::compare::hidden;
     use twinscope::model::{self, EffectKind, Effects};
     let base = model::preset(preset)?;
     let parse = |n: &str| EffectKind::parse_named(n.trim()).map_err(anyhow::Error::msg);
@@ -570,7 +585,6 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     if rounds == Some(0) {
         anyhow::bail!("--rounds must be at least 1");
     }
-    let opts = LoopOptions::default();
     let mut cases: Vec<Option<EffectKind>> = kinds.iter().map(|k| Some(*k)).collect();
     cases.extend(std::iter::repeat_n(None, controls));
     let mut results = Vec::new();

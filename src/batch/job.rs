@@ -189,6 +189,10 @@ pub struct LoopSpec {
     /// Model time simulated per evaluation, s (≥ 0.2). Default 1.5.
     #[serde(default = "LoopSpec::default_fit_duration_s")]
     pub fit_duration_s: f64,
+    /// When the calibration pins a parameter, start the trials from the uncalibrated values
+    /// (`LoopOptions::unbend_pinned`). Default false.
+    #[serde(default)]
+    pub unbend_pinned: bool,
 }
 
 impl LoopSpec {
@@ -217,7 +221,7 @@ impl LoopSpec {
         if !(self.fit_duration_s.is_finite() && self.fit_duration_s >= 0.2) {
             return Err(format!("`model_loop.fit_duration_s` = {}: must be at least 0.2 s", self.fit_duration_s));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, ..Default::default() };
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
             chain::Op::Bandpass(b) => Some(b.pass_band_hz),
             _ => None,

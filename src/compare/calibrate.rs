@@ -305,11 +305,21 @@ pub struct LoopOptions {
     /// that one too (a load zone fitted beside a hidden unbalance took the 500 N bound, where
     /// the truth was 187 N), and the next round must be free to un-bend them. Default: none.
     pub refit_effects: Vec<crate::model::EffectKind>,
+    /// When the calibration pins a parameter at the edge of its range ([`Fit::at_bound`]),
+    /// every stage-1 trial starts from the round's uncalibrated values instead of the bent
+    /// calibration, scans its main parameter on a grid, and re-does the calibration with it
+    /// (one sweep), as the casing trial always does. About six times a plain trial's cost.
+    /// Default: off.
+    pub unbend_pinned: bool,
+    /// Parameters scanned on a grid before their line search, like a [`Param::multimodal`]
+    /// one (set by the search for unbent trials). Default: none.
+    #[serde(skip)]
+    pub scan: Vec<Param>,
 }
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new() }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: false, scan: Vec::new() }
     }
 }
 
@@ -398,7 +408,7 @@ impl<'a> LoopProgress<'a> {
 /// Model evaluations [`fit`] makes for `params` over `sweeps` sweeps.
 pub fn fit_evaluations(m: &Machine, params: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
     let n = opts.evaluations_per_parameter.max(3);
-    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() { 3 * n } else { n }).sum::<usize>()
+    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() || opts.scan.contains(p) { 3 * n } else { n }).sum::<usize>()
 }
 
 /// Result of fitting.
@@ -540,7 +550,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                 let h = 0.25 * (b - a);
                 (a, b) = ((u0 - h).max(a), (u0 + h).min(b));
                 n = refine_evaluations(opts);
-            } else if p.multimodal() {
+            } else if p.multimodal() || opts.scan.contains(&p) {
                 // A mode frequency has one local minimum per spectral feature it can sit on:
                 // scan a grid first (its points are independent: evaluated in parallel), then
                 // refine between the best point's neighbours.

@@ -80,6 +80,10 @@ pub struct Diagnosis {
     /// on is invalid, or its simulation failed). They are not ranked.
     #[serde(default)]
     pub failed_trials: Vec<(EffectKind, String)>,
+    /// Whether the stage-1 trials started from the uncalibrated values because the
+    /// calibration pinned a parameter (`LoopOptions::unbend_pinned`).
+    #[serde(default)]
+    pub unbent: bool,
 }
 
 /// Characteristic frequencies of a machine at its speed: shaft, bearing fault families of the
@@ -354,6 +358,31 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
             + opts.recalibrate_top.min(candidates.len()) * fit_trial_evaluations(m, &[], &cal_params, opts),
     );
     let (cal_m, cal) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
+    // A calibration that pinned a parameter may have bent it to stand in for the missing
+    // effect; with `unbend_pinned` every trial then starts from the uncalibrated values.
+    let unbent = opts.unbend_pinned && !cal.at_bound.is_empty();
+    let unbent_start = |k: EffectKind| -> (Machine, Vec<Param>, LoopOptions) {
+        let mut t = m.clone();
+        t.effects.enable(k);
+        if k == EffectKind::PathModulation {
+            set_path_modulation_to_shaft_rate(&mut t);
+        }
+        let mut o = opts.clone();
+        o.scan.extend(Param::main_of_effect(k));
+        let ps = recalibration_parameters(k, &t, &o);
+        (t, ps, o)
+    };
+    if unbent {
+        let extra: usize = candidates
+            .iter()
+            .filter(|k| !recalibrates(**k))
+            .map(|&k| {
+                let (t, ps, o) = unbent_start(k);
+                fit_evaluations(&t, &ps, 1, &o).saturating_sub(fit_trial_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, opts))
+            })
+            .sum();
+        progress.expect(extra);
+    }
     let (c, _) = evaluate(&cal_m, measured, opts)?;
     progress.tick();
     let (fams, shaft) = machine_families(&cal_m);
@@ -397,6 +426,13 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                     t.validate().map_err(|e| e.to_string())?;
                     let ps = recalibration_parameters(k, &t, opts);
                     let (fm, f) = fit_with_progress(&t, measured, &ps, 1, opts, progress).map_err(|e| e.to_string())?;
+                    let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
+                    return Ok((make_trial(k, &fm, &f, &released), fm));
+                }
+                if unbent {
+                    let (t, ps, o) = unbent_start(k);
+                    t.validate().map_err(|e| e.to_string())?;
+                    let (fm, f) = fit_with_progress(&t, measured, &ps, 1, &o, progress).map_err(|e| e.to_string())?;
                     let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
                     return Ok((make_trial(k, &fm, &f, &released), fm));
                 }
@@ -447,7 +483,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     let trials: Vec<EffectTrial> = stage2.into_iter().chain(rest.into_iter().map(|x| x.0)).collect();
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent }))
 }
 
 /// A stage-1 trial and its fitted machine, or why it could not be run.

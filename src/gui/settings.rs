@@ -40,6 +40,9 @@ pub struct Settings {
     pub loop_sweeps: usize,
     /// Model loop: the effects the search may try; empty = every applicable effect the model lacks.
     pub loop_candidates: Vec<EffectKind>,
+    /// Model loop: start the trials from the uncalibrated values when the calibration pins a
+    /// parameter at the edge of its range (`LoopOptions::unbend_pinned`).
+    pub loop_unbend_pinned: bool,
 }
 
 impl Default for Settings {
@@ -59,6 +62,7 @@ impl Default for Settings {
             loop_evaluations_per_parameter: LoopOptions::default().evaluations_per_parameter,
             loop_sweeps: LoopOptions::default().sweeps,
             loop_candidates: Vec::new(),
+            loop_unbend_pinned: false,
         }
     }
 }
@@ -111,6 +115,7 @@ impl Settings {
             evaluations_per_parameter: self.loop_evaluations_per_parameter,
             sweeps: self.loop_sweeps,
             candidates: self.loop_candidates.clone(),
+            unbend_pinned: self.loop_unbend_pinned,
             ..Default::default()
         }
     }

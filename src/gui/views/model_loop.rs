@@ -141,6 +141,8 @@ impl ModelLoopView {
                 ui.add(egui::DragValue::new(&mut s.loop_sweeps).range(0..=5));
                 ui.end_row();
             });
+            ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, start the trials from the uncalibrated values")
+                .on_hover_text("each trial scans its effect on a grid and re-does the calibration with it (about six times slower): for a model the calibration bent to stand in for what is missing");
             let mut all = s.loop_candidates.is_empty();
             if ui.checkbox(&mut all, "try every applicable effect the model lacks").changed() {
                 s.loop_candidates = if all { Vec::new() } else { EffectKind::ALL.into_iter().filter(|k| !machine.effects.is_on(*k) && Effects::applicable(*k, machine)).collect() };
@@ -255,7 +257,8 @@ impl ModelLoopView {
         }
         if !cal.at_bound.is_empty() {
             let names: Vec<&str> = cal.at_bound.iter().map(|b| b.0.name()).collect();
-            ui.colored_label(ui.visuals().warn_fg_color, format!("at the edge of its search range (not estimated; may stand in for a missing effect): {}", names.join(", ")))
+            let hint = if d.unbent { "the trials started from the uncalibrated values" } else { "Search settings > unbend starts the trials from the uncalibrated values" };
+            ui.colored_label(ui.visuals().warn_fg_color, format!("at the edge of its search range (not estimated; may stand in for a missing effect): {}; {hint}", names.join(", ")))
                 .on_hover_text(cal.at_bound.iter().map(|(p, lo, hi)| format!("{}: range {} – {}", p.name(), fmt_num(*lo), fmt_num(*hi))).collect::<Vec<_>>().join("\n"));
         }
         egui::ScrollArea::both().id_salt("ranking-scroll").show(ui, |ui| {
