@@ -43,6 +43,12 @@ pub struct CaseResult {
     /// The trials, best first (per-domain NRMSE before and after each).
     #[serde(default)]
     pub trials: Vec<super::diagnose::EffectTrial>,
+    /// Calibrated parameters pinned at the edge of their range (`Fit::at_bound`), and whether
+    /// the trials therefore started from the uncalibrated values.
+    #[serde(default)]
+    pub pinned: Vec<Param>,
+    #[serde(default)]
+    pub unbent: bool,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -155,6 +161,8 @@ pub fn run_case(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_
         floor_objective: d.floor_objective,
         objective_scatter: d.objective_scatter,
         trials: d.trials.clone(),
+        pinned: d.calibration.at_bound.iter().map(|b| b.0).collect(),
+        unbent: d.unbent,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }
