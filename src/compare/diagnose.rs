@@ -361,6 +361,9 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     // A calibration that pinned a parameter may have bent it to stand in for the missing
     // effect; with `unbend_pinned` every trial then starts from the uncalibrated values.
     let unbent = opts.unbend_pinned && !cal.at_bound.is_empty();
+    // The start of a trial that re-does the calibration with its effect (the casing trial
+    // always; every trial when unbent): the round's uncalibrated machine with the effect on,
+    // its main parameter scanned on a grid.
     let unbent_start = |k: EffectKind| -> (Machine, Vec<Param>, LoopOptions) {
         let mut t = m.clone();
         t.effects.enable(k);
@@ -420,16 +423,8 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         .par_iter()
         .map(|&k| {
             let run = || -> TrialOutcome {
-                if recalibrates(k) {
-                    let mut t = m.clone();
-                    t.effects.enable(k);
-                    t.validate().map_err(|e| e.to_string())?;
-                    let ps = recalibration_parameters(k, &t, opts);
-                    let (fm, f) = fit_with_progress(&t, measured, &ps, 1, opts, progress).map_err(|e| e.to_string())?;
-                    let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
-                    return Ok((make_trial(k, &fm, &f, &released), fm));
-                }
-                if unbent {
+                if recalibrates(k) || unbent {
+                    // From the uncalibrated values, the effect scanned, then one calibration sweep.
                     let (t, ps, o) = unbent_start(k);
                     t.validate().map_err(|e| e.to_string())?;
                     let (fm, f) = fit_with_progress(&t, measured, &ps, 1, &o, progress).map_err(|e| e.to_string())?;
