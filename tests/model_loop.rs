@@ -41,6 +41,29 @@ fn calibration_recovers_a_mistuned_resonance() {
 }
 
 #[test]
+fn a_resonance_that_walks_past_its_first_range_is_not_called_pinned() {
+    // The resonance's search range is 0.7–1.4 × its current value, so it moves between sweeps.
+    // Model at 1430 Hz, truth at 2600 Hz: sweep 1 can reach only 2002 Hz (its edge: pinned),
+    // sweep 2 searches 1401–2803 Hz from there and finds the truth inside its range. The flag
+    // reads the range each parameter's last search used, not the one of the starting value
+    // (from which 2600 Hz lies beyond the edge).
+    let truth = model::preset("cwru_6205_inner").unwrap();
+    let mut mt = truth.clone();
+    mt.duration_s = 1.0;
+    let measured = model::simulate(&mt).unwrap();
+    let mut wrong = truth.clone();
+    Param::ResonanceHz.set(&mut wrong, 1430.0);
+    let opts = LoopOptions { fit_duration_s: 1.0, evaluations_per_parameter: 10, compare: twinscope::compare::CompareOptions { envelope_band_hz: [1800.0, 3000.0], scf: false, ..Default::default() }, ..Default::default() };
+    let reference = Reference::new(&measured, &opts.compare).unwrap();
+    let (one, f1) = fit(&wrong, &reference, &[Param::ResonanceHz], 1, &opts).unwrap();
+    let (two, f2) = fit(&wrong, &reference, &[Param::ResonanceHz], 2, &opts).unwrap();
+    let (r1, r2) = (Param::ResonanceHz.get(&one).unwrap(), Param::ResonanceHz.get(&two).unwrap());
+    assert!(f1.at_bound.iter().any(|b| b.0 == Param::ResonanceHz && (b.2 - 2002.0).abs() < 1.0), "one sweep ends at {r1:.0} Hz, the edge of 1001–2002 Hz: {:?}", f1.at_bound);
+    assert!((r2 - 2600.0).abs() / 2600.0 < 0.03, "two sweeps reach {r2:.0} Hz");
+    assert!(f2.at_bound.is_empty(), "{r2:.0} Hz lies inside the range its last search used: {:?}", f2.at_bound);
+}
+
+#[test]
 fn hidden_load_zone_is_found_and_the_error_falls() {
     let base = model::preset("mfs_inner").unwrap();
     let opts = LoopOptions { fit_duration_s: 1.0, evaluations_per_parameter: 7, sweeps: 1, ..Default::default() };

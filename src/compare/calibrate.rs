@@ -311,15 +311,11 @@ pub struct LoopOptions {
     /// (one sweep), as the casing trial always does. About six times a plain trial's cost.
     /// Default: off.
     pub unbend_pinned: bool,
-    /// Parameters scanned on a grid before their line search, like a [`Param::multimodal`]
-    /// one (set by the search for unbent trials). Default: none.
-    #[serde(skip)]
-    pub scan: Vec<Param>,
 }
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: false, scan: Vec::new() }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: false }
     }
 }
 
@@ -405,10 +401,11 @@ impl<'a> LoopProgress<'a> {
     }
 }
 
-/// Model evaluations [`fit`] makes for `params` over `sweeps` sweeps.
-pub fn fit_evaluations(m: &Machine, params: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
+/// Model evaluations [`fit`] makes for `params` over `sweeps` sweeps, when the parameters in
+/// `scan` are scanned on a grid (see [`fit_scanning`]; [`fit`] scans none).
+pub fn fit_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
     let n = opts.evaluations_per_parameter.max(3);
-    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() || opts.scan.contains(p) { 3 * n } else { n }).sum::<usize>()
+    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() || scan.contains(p) { 3 * n } else { n }).sum::<usize>()
 }
 
 /// Result of fitting.
@@ -429,9 +426,9 @@ pub struct Fit {
     /// NRMSE (%) per domain before and after: (domain, before, after).
     #[serde(default)]
     pub domains: Vec<(String, f64, f64)>,
-    /// Parameters fitted over their full range that ended at an edge of the range searched
-    /// from their starting value (or beyond it, after several sweeps; see
-    /// [`at_search_bound`]), with that range `(low, high)`.
+    /// Parameters fitted over their full range that ended at an edge of the range their last
+    /// line search used (see [`at_search_bound`]; a resonance's range moves with its value
+    /// from sweep to sweep), with that range `(low, high)`.
     #[serde(default)]
     pub at_bound: Vec<(Param, f64, f64)>,
 }
@@ -490,7 +487,14 @@ pub fn fit(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, 
 
 /// [`fit`], counting each evaluation in `progress` (and stopping when it is cancelled).
 pub fn fit_with_progress(m: &Machine, reference: &Reference, params: &[Param], sweeps: usize, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
-    fit_impl(m, reference, params, &[], sweeps, opts, progress)
+    fit_impl(m, reference, params, &[], &[], sweeps, opts, progress)
+}
+
+/// [`fit_with_progress`], scanning each parameter in `scan` on a grid before its line search,
+/// as a [`Param::multimodal`] one always is (the search's unbent trials scan the effect's main
+/// parameter: a periodic force's objective is narrow and not unimodal in its amplitude).
+pub fn fit_scanning(m: &Machine, reference: &Reference, params: &[Param], scan: &[Param], sweeps: usize, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
+    fit_impl(m, reference, params, &[], scan, sweeps, opts, progress)
 }
 
 /// Evaluations of a local refinement (see [`fit_trial`]).
@@ -504,15 +508,16 @@ fn refine_evaluations(opts: &LoopOptions) -> usize {
 /// model lacks) are released when the effect is added, or the trial would judge the effect
 /// against a model tuned to do without it.
 pub fn fit_trial(m: &Machine, reference: &Reference, params: &[Param], refine: &[Param], opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
-    fit_impl(m, reference, params, refine, 1, opts, progress)
+    fit_impl(m, reference, params, refine, &[], 1, opts, progress)
 }
 
 /// Model evaluations [`fit_trial`] makes.
 pub fn fit_trial_evaluations(m: &Machine, params: &[Param], refine: &[Param], opts: &LoopOptions) -> usize {
-    fit_evaluations(m, params, 1, opts) + refine.iter().filter(|p| p.get(m).is_some()).count() * refine_evaluations(opts)
+    fit_evaluations(m, params, &[], 1, opts) + refine.iter().filter(|p| p.get(m).is_some()).count() * refine_evaluations(opts)
 }
 
-fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Param], sweeps: usize, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
+#[allow(clippy::too_many_arguments)]
+fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Param], scan: &[Param], sweeps: usize, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
     let (c0, g0) = evaluate(m, reference, opts)?;
     if !progress.tick() {
         return Err(LoopError::Cancelled);
@@ -526,9 +531,15 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
     let params: Vec<Param> = params.iter().copied().filter(|p| p.get(m).is_some()).collect();
     let refine: Vec<Param> = refine.iter().copied().filter(|p| p.get(m).is_some() && !params.contains(p)).collect();
     let searches: Vec<(Param, bool)> = params.iter().map(|p| (*p, false)).chain(refine.iter().map(|p| (*p, true))).collect();
+    // The range each full-range search last used (a resonance's range moves with its value).
+    let mut searched_bounds: Vec<(Param, f64, f64, bool)> = Vec::new();
     for _ in 0..sweeps {
         for &(p, local) in &searches {
             let (lo, hi, log) = p.bounds(&best_m);
+            if !local {
+                searched_bounds.retain(|e| e.0 != p);
+                searched_bounds.push((p, lo, hi, log));
+            }
             let to = |u: f64| if log { u.exp() } else { u };
             let from = |x: f64| if log { x.max(1e-300).ln() } else { x };
             let x0 = p.get(&best_m).unwrap_or(lo).clamp(lo, hi);
@@ -550,7 +561,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                 let h = 0.25 * (b - a);
                 (a, b) = ((u0 - h).max(a), (u0 + h).min(b));
                 n = refine_evaluations(opts);
-            } else if p.multimodal() || opts.scan.contains(&p) {
+            } else if p.multimodal() || scan.contains(&p) {
                 // A mode frequency has one local minimum per spectral feature it can sit on:
                 // scan a grid first (its points are independent: evaluated in parallel), then
                 // refine between the best point's neighbours.
@@ -595,14 +606,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
         }
     }
     let fitted: Vec<(Param, f64)> = searches.iter().filter_map(|(p, _)| p.get(&best_m).map(|v| (*p, v))).collect();
-    let at_bound = searches
-        .iter()
-        .filter(|(_, local)| !local)
-        .filter_map(|&(p, _)| {
-            let (lo, hi, log) = p.bounds(m);
-            p.get(&best_m).filter(|&v| at_search_bound(v, lo, hi, log)).map(|_| (p, lo, hi))
-        })
-        .collect();
+    let at_bound = searched_bounds.iter().filter_map(|&(p, lo, hi, log)| p.get(&best_m).filter(|&v| at_search_bound(v, lo, hi, log)).map(|_| (p, lo, hi))).collect();
     Ok((
         best_m,
         Fit {

@@ -2,7 +2,7 @@
 //! evidence in the residual map for that effect's signature with a trial — switch it on, fit
 //! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
 
-use super::calibrate::{calibration_parameters_for, evaluate, fit_evaluations, fit_trial, fit_trial_evaluations, fit_with_progress, objective, Fit, LoopError, LoopOptions, LoopProgress, Param};
+use super::calibrate::{calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_with_progress, objective, Fit, LoopError, LoopOptions, LoopProgress, Param};
 use super::residual::{residual_map, ResidualMap};
 use super::{Comparison, Reference};
 use crate::kinematics::CharacteristicFrequency;
@@ -340,7 +340,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     let cal_params = calibration_parameters_for(m, opts);
     let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, m) && (opts.candidates.is_empty() || opts.candidates.contains(k))).collect();
     progress.expect(
-        fit_evaluations(m, &cal_params, opts.sweeps, opts)
+        fit_evaluations(m, &cal_params, &[], opts.sweeps, opts)
             + 1
             + FLOOR_SEEDS.len()
             + SCATTER_SEEDS.len()
@@ -350,7 +350,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 let mut t = m.clone();
                 t.effects.enable(*k);
                 if recalibrates(*k) {
-                    fit_evaluations(&t, &recalibration_parameters(*k, &t, opts), 1, opts)
+                    fit_evaluations(&t, &recalibration_parameters(*k, &t, opts), &[], 1, opts)
                 } else {
                     fit_trial_evaluations(&t, &Param::of_effect(*k), &TRIAL_REFINE, opts)
                 }
@@ -365,24 +365,23 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     // The start of a trial that re-does the calibration with its effect (the casing trial
     // always; every trial when unbent): the round's uncalibrated machine with the effect on,
     // its main parameter scanned on a grid.
-    let unbent_start = |k: EffectKind| -> (Machine, Vec<Param>, LoopOptions) {
+    let unbent_start = |k: EffectKind| -> (Machine, Vec<Param>, Vec<Param>) {
         let mut t = m.clone();
         t.effects.enable(k);
         if k == EffectKind::PathModulation {
             set_path_modulation_to_shaft_rate(&mut t);
         }
-        let mut o = opts.clone();
-        o.scan.extend(Param::main_of_effect(k));
-        let ps = recalibration_parameters(k, &t, &o);
-        (t, ps, o)
+        let ps = recalibration_parameters(k, &t, opts);
+        let scan: Vec<Param> = Param::main_of_effect(k).into_iter().collect();
+        (t, ps, scan)
     };
     if unbent {
         let extra: usize = candidates
             .iter()
             .filter(|k| !recalibrates(**k))
             .map(|&k| {
-                let (t, ps, o) = unbent_start(k);
-                fit_evaluations(&t, &ps, 1, &o).saturating_sub(fit_trial_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, opts))
+                let (t, ps, scan) = unbent_start(k);
+                fit_evaluations(&t, &ps, &scan, 1, opts).saturating_sub(fit_trial_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, opts))
             })
             .sum();
         progress.expect(extra);
@@ -426,9 +425,9 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
             let run = || -> TrialOutcome {
                 if recalibrates(k) || unbent {
                     // From the uncalibrated values, the effect scanned, then one calibration sweep.
-                    let (t, ps, o) = unbent_start(k);
+                    let (t, ps, scan) = unbent_start(k);
                     t.validate().map_err(|e| e.to_string())?;
-                    let (fm, f) = fit_with_progress(&t, measured, &ps, 1, &o, progress).map_err(|e| e.to_string())?;
+                    let (fm, f) = fit_scanning(&t, measured, &ps, &scan, 1, opts, progress).map_err(|e| e.to_string())?;
                     let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
                     return Ok((make_trial(k, &fm, &f, &released), fm));
                 }
