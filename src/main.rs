@@ -128,11 +128,8 @@ enum Command {
         /// Write the final machine (with the applied effects) as TOML.
         #[arg(long)]
         save_machine: Option<PathBuf>,
-        /// When the calibration pins a parameter at the edge of its range, start every trial
-        /// from the uncalibrated values (grid scan of the effect, then one calibration sweep):
-        /// slower, for a model the calibration bent to stand in for what is missing.
-        #[arg(long)]
-        unbend_pinned: bool,
+        #[command(flatten)]
+        search: SearchArgs,
     },
     /// Hidden-effect evaluation: for each effect, simulate a "measurement" with it hidden
     /// (random parameters, perturbed baseline, SNR 0–20 dB), diagnose the model without it, and
@@ -167,11 +164,8 @@ enum Command {
         /// cases, or, with `--hide`, `{"single": [...], "multi": [...]}`.
         #[arg(long)]
         json: Option<PathBuf>,
-        /// When the calibration pins a parameter at the edge of its range, start every trial
-        /// from the uncalibrated values (grid scan of the effect, then one calibration sweep):
-        /// slower, for a model the calibration bent to stand in for what is missing.
-        #[arg(long)]
-        unbend_pinned: bool,
+        #[command(flatten)]
+        search: SearchArgs,
     },
     /// Simulate a machine (TOML, or a bundled preset) and write the sensor signal (.wav or .csv).
     Simulate {
@@ -200,6 +194,22 @@ enum Command {
     /// Time the heavy operations on 10 s of 16384 Hz data (and scipy's, when python3 with
     /// scipy is available) and print a Markdown table.
     Bench(bench::BenchArgs),
+}
+
+/// Options of the missing-effect search shared by `diagnose` and `confusion`.
+#[derive(clap::Args, Debug)]
+struct SearchArgs {
+    /// When the calibration pins a parameter at the edge of its range, start every trial
+    /// from the uncalibrated values (grid scan of the effect, then one calibration sweep):
+    /// slower, for a model the calibration bent to stand in for what is missing.
+    #[arg(long)]
+    unbend_pinned: bool,
+}
+
+impl SearchArgs {
+    fn options(&self) -> LoopOptions {
+        LoopOptions { unbend_pinned: self.unbend_pinned, ..Default::default() }
+    }
 }
 
 fn main() {
@@ -235,8 +245,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine, unbend_pinned }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, LoopOptions { fit_duration_s, unbend_pinned, ..Default::default() }, json.as_deref(), save_machine.as_deref(), cli.quiet),
-        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, json, unbend_pinned }) => confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, json.as_deref(), LoopOptions { unbend_pinned, ..Default::default() }),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, LoopOptions { fit_duration_s, ..search.options() }, json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, json, search }) => confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, json.as_deref(), search.options()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => open_workbench(cli.view, cli.open, !cli.no_demo, cli.find_missing_effect, cli.export_png),
     }
