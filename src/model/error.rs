@@ -20,6 +20,9 @@ pub enum ModelError {
     /// The static equilibrium could not be found.
     #[error("static equilibrium not found: {0}")]
     NoEquilibrium(String),
+    /// The recorder's anti-alias filter could not be applied to the simulated record.
+    #[error("recorder anti-alias filter (`sensor.antialias`): {0}")]
+    AntiAlias(String),
     /// The run was cancelled by the caller.
     #[error("simulation cancelled at t = {t_s:.3} s")]
     Cancelled { t_s: f64 },

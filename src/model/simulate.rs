@@ -206,7 +206,7 @@ pub fn run(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Signa
     } else {
         fine
     };
-    let y = post_process(&out, m.fs_hz, &model.post, m.seed);
+    let y = post_process(&out, m.fs_hz, &model.post, m.seed)?;
     let mut s = Signal::new(y, m.fs_hz, format!("{} (simulated)", m.name), m.sensor.unit.clone());
     s.meta.shaft_speed_hz = model.shaft_speeds_hz.first().copied();
     s.meta.source = Some(format!("twinscope model `{}`", m.name));
@@ -220,7 +220,10 @@ pub fn run(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Signa
 
 /// Applies the measurement effects in physical order: accelerometer response, then the
 /// transmission-path modulation, then additive noise, then the recorder's anti-alias filter.
-pub fn post_process(x: &[f64], fs_hz: f64, post: &PostProcessing, seed: u64) -> Vec<f64> {
+///
+/// Errors: the anti-alias filter's (its parameters are validated with the machine, so in
+/// practice a record shorter than 2 samples).
+pub fn post_process(x: &[f64], fs_hz: f64, post: &PostProcessing, seed: u64) -> Result<Vec<f64>, ModelError> {
     let mut y = x.to_vec();
     if let Some((bw, zeta)) = post.sensor_response {
         y = sensor_lowpass(&y, fs_hz, bw, zeta);
@@ -237,12 +240,9 @@ pub fn post_process(x: &[f64], fs_hz: f64, post: &PostProcessing, seed: u64) -> 
         y.iter_mut().zip(noise).for_each(|(a, b)| *a += b);
     }
     if let Some(a) = &post.antialias {
-        // Parameters are validated with the machine; a record too short to filter stays as is.
-        if let Ok(f) = crate::dsp::lowpass::fourier_lowpass(&y, fs_hz, a.passband_hz, a.stopband_hz, a.stopband_db) {
-            y = f;
-        }
+        y = crate::dsp::lowpass::fourier_lowpass(&y, fs_hz, a.passband_hz, a.stopband_hz, a.stopband_db).map_err(|e| ModelError::AntiAlias(e.to_string()))?;
     }
-    y
+    Ok(y)
 }
 
 /// Second-order low-pass `ω²/(s² + 2ζωs + ω²)` discretised by the bilinear transform with
@@ -289,5 +289,29 @@ pub fn coloured_noise(n: usize, std: f64, colour: NoiseColour, seed: u64) -> Vec
         shaped.into_iter().map(|v| v * std / rms).collect()
     } else {
         shaped
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::AntiAliasFilter;
+
+    fn rms(x: &[f64]) -> f64 {
+        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+    }
+
+    #[test]
+    fn the_antialias_filter_acts_and_a_record_it_cannot_filter_is_an_error() {
+        let post = PostProcessing { antialias: Some(AntiAliasFilter { passband_hz: 100.0, stopband_hz: 200.0, stopband_db: 40.0 }), ..Default::default() };
+        let fs_hz = 1000.0;
+        let tone = |f: f64| -> Vec<f64> { (0..1000).map(|i| (TAU * f * i as f64 / fs_hz).sin()).collect() };
+        let stop = post_process(&tone(400.0), fs_hz, &post, 1).unwrap();
+        assert!((20.0 * (rms(&stop) / rms(&tone(400.0))).log10() + 40.0).abs() < 1e-6, "a stop-band tone falls 40 dB: {}", rms(&stop));
+        let pass = post_process(&tone(50.0), fs_hz, &post, 1).unwrap();
+        assert!((rms(&pass) / rms(&tone(50.0)) - 1.0).abs() < 1e-9);
+        // Before, a record the filter could not take came back unfiltered without a word.
+        let e = post_process(&[1.0], fs_hz, &post, 1).unwrap_err();
+        assert!(matches!(e, ModelError::AntiAlias(_)) && e.to_string().contains("sensor.antialias") && e.to_string().contains('2'), "{e}");
     }
 }
