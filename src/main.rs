@@ -532,17 +532,21 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     let n_tied = last.trials.iter().filter(|t| t.tied_with_best).count();
     for (i, t) in last.trials.iter().enumerate() {
         println!(
-            "{:>2}. {:<18} objective {:6.1} → {:6.1} ({:+4.0} %, explains {:4.0} % above the floor){}  envelope NRMSE {:5.1} → {:5.1} %",
+            "{:>2}. {:<18} objective {:6.1} → {:6.1} ({:+4.0} %, explains {:4.0} % above the floor, switched off again {}){}  envelope NRMSE {:5.1} → {:5.1} %",
             i + 1,
             t.effect.name(),
             t.objective_before,
             t.objective_after,
             -t.reduction * 100.0,
             t.explained * 100.0,
+            t.effect_explained.map_or("–".to_string(), |e| format!("{:4.0} %", e * 100.0)),
             if t.tied_with_best && n_tied > 1 { " tied" } else { "     " },
             t.envelope_nrmse_before,
             t.envelope_nrmse_after
         );
+        if t.outside_band {
+            println!("    {:<18} its feature was fitted at the edge of the band searched, outside what the data show: not a finding", "");
+        }
     }
     for (k, why) in &last.failed_trials {
         println!("    {:<18} not ranked: its trial failed: {why}", k.name());

@@ -112,8 +112,9 @@ fn progress_counts_every_evaluation_and_cancel_stops_the_search() {
     // skipped: calibration 1 + 4 parameters × 4, the calibrated model 1, the floor 2, the seed
     // scatter 2, slip 1 + 4 + noise refit 3, casing_modes re-doing the calibration with the mode
     // 1 + 3 × 4 (grid, then line search) + 4 × 4, then both (the top 3) re-fit the 4 calibrated
-    // parameters locally: 2 × (1 + 4 × 3).
-    let expected = (1 + 4 * 4) + 1 + 2 + 2 + (1 + 4 + 3) + (1 + 12 + 4 * 4) + 2 * (1 + 4 * 3);
+    // parameters locally: 2 × (1 + 4 × 3), and each fitted machine is evaluated once more
+    // without its effect: 2.
+    let expected = (1 + 4 * 4) + 1 + 2 + 2 + (1 + 4 + 3) + (1 + 12 + 4 * 4) + 2 * (1 + 4 * 3) + 2;
     assert_eq!(last_expected.load(Ordering::SeqCst), expected);
     assert_eq!(last_done.load(Ordering::SeqCst), expected);
     assert_eq!(calls.load(Ordering::SeqCst), expected);
@@ -151,6 +152,10 @@ fn the_seed_floor_is_what_the_model_scores_against_itself() {
     let t = &d.trials[0];
     assert_eq!(t.effect, EffectKind::LoadZone);
     assert!(t.explained > 0.5, "load_zone explains {:.0} % of the error above the floor", t.explained * 100.0);
+    // The ablation: switched off again in the trial's fitted machine, the load zone's absence
+    // costs most of what the trial gained; the re-fitted noise level did not do it.
+    let without = t.objective_without_effect.expect("the ablation was evaluated");
+    assert!(without > t.objective_after && t.effect_explained.unwrap() > 0.5, "without the load zone {without:.2}, with it {:.2}: {:?}", t.objective_after, t.effect_explained);
 }
 
 #[test]

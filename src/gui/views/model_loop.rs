@@ -297,7 +297,9 @@ impl ModelLoopView {
             for (i, t) in d.trials.iter().enumerate() {
                 let fitted: Vec<String> = t.parameter.iter().chain(t.extra_parameters.iter()).map(|(p, v)| format!("{} = {} {}", p.name(), fmt_num(*v), unit_of(p.name())).trim_end().to_string()).collect();
                 let fitted = if fitted.is_empty() { "a switch".to_string() } else { fitted.join(", ") };
-                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
+                let itself = t.effect_explained.map_or(String::new(), |e| format!("; switching it off again in the fitted model costs {:.0} %", e * 100.0));
+                let edge = if t.outside_band { "; its feature was fitted at the edge of the band, outside what the data show: not a finding" } else { "" };
+                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
             }
         });
     }
