@@ -23,17 +23,24 @@ fn params_read_and_write_the_machine() {
     assert!(Param::SlipPercent.get(&m).is_some());
 }
 
-#[test]
-fn calibration_recovers_a_mistuned_resonance() {
-    // Measurement: the CWRU inner-race model as is. Model: its resonance 15 % off.
+/// 1 s of the CWRU inner-race preset (resonance 2600 Hz) as the measurement, the same machine
+/// with its resonance at `resonance_hz` as the model, and quick fit options (no SCF).
+fn mistuned_resonance(resonance_hz: f64) -> (model::Machine, Reference, LoopOptions) {
     let truth = model::preset("cwru_6205_inner").unwrap();
     let mut mt = truth.clone();
     mt.duration_s = 1.0;
     let measured = model::simulate(&mt).unwrap();
-    let mut wrong = truth.clone();
-    Param::ResonanceHz.set(&mut wrong, 2600.0 * 1.15);
+    let mut wrong = truth;
+    Param::ResonanceHz.set(&mut wrong, resonance_hz);
     let opts = LoopOptions { fit_duration_s: 1.0, evaluations_per_parameter: 10, compare: twinscope::compare::CompareOptions { envelope_band_hz: [1800.0, 3000.0], scf: false, ..Default::default() }, ..Default::default() };
     let reference = Reference::new(&measured, &opts.compare).unwrap();
+    (wrong, reference, opts)
+}
+
+#[test]
+fn calibration_recovers_a_mistuned_resonance() {
+    // Measurement: the CWRU inner-race model as is. Model: its resonance 15 % off.
+    let (wrong, reference, opts) = mistuned_resonance(2600.0 * 1.15);
     let (fitted, report) = fit(&wrong, &reference, &[Param::ResonanceHz], 1, &opts).unwrap();
     let f = Param::ResonanceHz.get(&fitted).unwrap();
     assert!((f - 2600.0).abs() / 2600.0 < 0.03, "fitted resonance {f} Hz, true 2600 Hz");
@@ -47,14 +54,7 @@ fn a_resonance_that_walks_past_its_first_range_is_not_called_pinned() {
     // sweep 2 searches 1401–2803 Hz from there and finds the truth inside its range. The flag
     // reads the range each parameter's last search used, not the one of the starting value
     // (from which 2600 Hz lies beyond the edge).
-    let truth = model::preset("cwru_6205_inner").unwrap();
-    let mut mt = truth.clone();
-    mt.duration_s = 1.0;
-    let measured = model::simulate(&mt).unwrap();
-    let mut wrong = truth.clone();
-    Param::ResonanceHz.set(&mut wrong, 1430.0);
-    let opts = LoopOptions { fit_duration_s: 1.0, evaluations_per_parameter: 10, compare: twinscope::compare::CompareOptions { envelope_band_hz: [1800.0, 3000.0], scf: false, ..Default::default() }, ..Default::default() };
-    let reference = Reference::new(&measured, &opts.compare).unwrap();
+    let (wrong, reference, opts) = mistuned_resonance(1430.0);
     let (one, f1) = fit(&wrong, &reference, &[Param::ResonanceHz], 1, &opts).unwrap();
     let (two, f2) = fit(&wrong, &reference, &[Param::ResonanceHz], 2, &opts).unwrap();
     let (r1, r2) = (Param::ResonanceHz.get(&one).unwrap(), Param::ResonanceHz.get(&two).unwrap());
