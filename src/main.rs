@@ -199,9 +199,10 @@ enum Command {
 /// Options of the missing-effect search shared by `diagnose` and `confusion`.
 #[derive(clap::Args, Debug)]
 struct SearchArgs {
-    /// When the calibration pins a parameter at the edge of its range, start every trial
-    /// from the uncalibrated values (grid scan of the effect, then one calibration sweep):
-    /// slower, for a model the calibration bent to stand in for what is missing.
+    /// When the calibration pins a parameter at the edge of its range, also start every trial
+    /// from the uncalibrated values (grid scan of the effect, then one calibration sweep) and
+    /// keep the better fit: slower, for a model the calibration bent to stand in for what is
+    /// missing.
     #[arg(long)]
     unbend_pinned: bool,
 }
@@ -520,9 +521,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         }
     }
     if last.unbent {
-        println!("  the trials started from the uncalibrated values (--unbend-pinned), not from this bent calibration");
+        println!("  the trials also started from the uncalibrated values (--unbend-pinned), not only from this bent calibration");
     } else if !cal.at_bound.is_empty() {
-        println!("  (--unbend-pinned starts the trials from the uncalibrated values instead)");
+        println!("  (--unbend-pinned also starts the trials from the uncalibrated values)");
     }
     println!("\nwhere the calibrated model fails (envelope, share of squared error):");
     for (f, s) in last.residual_map.envelope_families.iter().take(6) {

@@ -189,8 +189,8 @@ pub struct LoopSpec {
     /// Model time simulated per evaluation, s (≥ 0.2). Default 1.5.
     #[serde(default = "LoopSpec::default_fit_duration_s")]
     pub fit_duration_s: f64,
-    /// When the calibration pins a parameter, start the trials from the uncalibrated values
-    /// (`LoopOptions::unbend_pinned`). Default false.
+    /// When the calibration pins a parameter, also start the trials from the uncalibrated
+    /// values (`LoopOptions::unbend_pinned`). Default false.
     #[serde(default)]
     pub unbend_pinned: bool,
 }

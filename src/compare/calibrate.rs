@@ -316,10 +316,10 @@ pub struct LoopOptions {
     /// the truth was 187 N), and the next round must be free to un-bend them. Default: none.
     pub refit_effects: Vec<crate::model::EffectKind>,
     /// When the calibration pins a parameter at the edge of its range ([`Fit::at_bound`]),
-    /// every stage-1 trial starts from the round's uncalibrated values instead of the bent
-    /// calibration, scans its main parameter on a grid, and re-does the calibration with it
-    /// (one sweep), as the casing trial always does. About six times a plain trial's cost.
-    /// Default: off.
+    /// every stage-1 trial is also started from the round's uncalibrated values: it scans its
+    /// main parameter on a grid and re-does the calibration with it (one sweep), as the casing
+    /// trial always does, and the better of the two fits is the trial. About seven times a
+    /// plain trial's cost. Default: off.
     pub unbend_pinned: bool,
 }
 

@@ -404,7 +404,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
             .filter(|k| !recalibrates(**k))
             .map(|&k| {
                 let (t, ps, scan) = unbent_start(k);
-                fit_evaluations(&t, &ps, &scan, 1, opts).saturating_sub(fit_trial_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, opts))
+                fit_evaluations(&t, &ps, &scan, 1, opts)
             })
             .sum();
         progress.expect(extra);
@@ -449,15 +449,16 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     let outcomes: Vec<(EffectKind, TrialOutcome)> = candidates
         .par_iter()
         .map(|&k| {
-            let run = || -> TrialOutcome {
-                if recalibrates(k) || unbent {
-                    // From the uncalibrated values, the effect scanned, then one calibration sweep.
-                    let (t, ps, scan) = unbent_start(k);
-                    t.validate().map_err(|e| e.to_string())?;
-                    let (fm, f) = fit_scanning(&t, measured, &ps, &scan, 1, opts, progress).map_err(|e| e.to_string())?;
-                    let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
-                    return Ok((make_trial(k, &fm, &f, &released), fm));
-                }
+            // From the uncalibrated values, the effect scanned, then one calibration sweep.
+            let from_uncalibrated = || -> TrialOutcome {
+                let (t, ps, scan) = unbent_start(k);
+                t.validate().map_err(|e| e.to_string())?;
+                let (fm, f) = fit_scanning(&t, measured, &ps, &scan, 1, opts, progress).map_err(|e| e.to_string())?;
+                let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
+                Ok((make_trial(k, &fm, &f, &released), fm))
+            };
+            // From the calibrated model, the effect fitted and the noise level re-fitted.
+            let from_calibrated = || -> TrialOutcome {
                 let mut t = cal_m.clone();
                 t.effects.enable(k);
                 if k == EffectKind::PathModulation {
@@ -467,7 +468,20 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 let (fm, f) = fit_trial(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, opts, progress).map_err(|e| e.to_string())?;
                 Ok((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
             };
-            (k, run())
+            let outcome = if recalibrates(k) {
+                from_uncalibrated()
+            } else if unbent {
+                // Both starts; the better fit is the trial (a start from the uncalibrated values
+                // with one sweep can end worse than the bent calibration's).
+                match (from_calibrated(), from_uncalibrated()) {
+                    (Ok(a), Ok(b)) => Ok(if b.0.objective_after < a.0.objective_after { b } else { a }),
+                    (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
+                    (Err(e), Err(_)) => Err(e),
+                }
+            } else {
+                from_calibrated()
+            };
+            (k, outcome)
         })
         .collect();
     let mut stage1: Vec<(EffectTrial, Machine)> = Vec::new();

@@ -40,8 +40,8 @@ pub struct Settings {
     pub loop_sweeps: usize,
     /// Model loop: the effects the search may try; empty = every applicable effect the model lacks.
     pub loop_candidates: Vec<EffectKind>,
-    /// Model loop: start the trials from the uncalibrated values when the calibration pins a
-    /// parameter at the edge of its range (`LoopOptions::unbend_pinned`).
+    /// Model loop: also start the trials from the uncalibrated values when the calibration pins
+    /// a parameter at the edge of its range (`LoopOptions::unbend_pinned`).
     pub loop_unbend_pinned: bool,
 }
 

@@ -141,7 +141,7 @@ impl ModelLoopView {
                 ui.add(egui::DragValue::new(&mut s.loop_sweeps).range(0..=5));
                 ui.end_row();
             });
-            ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, start the trials from the uncalibrated values")
+            ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, also start the trials from the uncalibrated values")
                 .on_hover_text("each trial scans its effect on a grid and re-does the calibration with it (about six times slower): for a model the calibration bent to stand in for what is missing");
             let mut all = s.loop_candidates.is_empty();
             if ui.checkbox(&mut all, "try every applicable effect the model lacks").changed() {
@@ -257,7 +257,7 @@ impl ModelLoopView {
         }
         if !cal.at_bound.is_empty() {
             let names: Vec<&str> = cal.at_bound.iter().map(|b| b.0.name()).collect();
-            let hint = if d.unbent { "the trials started from the uncalibrated values" } else { "Search settings > unbend starts the trials from the uncalibrated values" };
+            let hint = if d.unbent { "the trials also started from the uncalibrated values" } else { "Search settings > unbend also starts the trials from the uncalibrated values" };
             ui.colored_label(ui.visuals().warn_fg_color, format!("at the edge of its search range (not estimated; may stand in for a missing effect): {}; {hint}", names.join(", ")))
                 .on_hover_text(cal.at_bound.iter().map(|(p, lo, hi)| format!("{}: range {} – {}", p.name(), fmt_num(*lo), fmt_num(*hi))).collect::<Vec<_>>().join("\n"));
         }
