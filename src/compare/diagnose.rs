@@ -284,7 +284,8 @@ pub fn objective_scatter(m: &Machine, reference: &Reference, j_own_seed: f64, op
 }
 
 /// The decision, from the trials' objectives and the noise around them:
-/// 1. rank by objective after the trial (best first);
+/// 1. rank by objective after the trial (best first), except that a trial whose feature was
+///    fitted at the edge of its band ([`EffectTrial::outside_band`]) goes after every other;
 /// 2. trials within the seed scatter of the best (difference < 2√2 σ) are tied: the data
 ///    cannot tell them apart, and the one whose signature carries most of the residual map's
 ///    error is put first;
