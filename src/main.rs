@@ -546,7 +546,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             t.envelope_nrmse_after
         );
         if t.outside_band {
-            println!("    {:<18} its feature was fitted at the edge of the band searched, outside what the data show: not a finding", "");
+            println!("    {:<18} {}", "", twinscope::compare::diagnose::OUTSIDE_BAND_NOTE);
         }
     }
     for (k, why) in &last.failed_trials {

@@ -242,9 +242,8 @@ impl Param {
     /// Whether the parameter places a spectral feature in the analysed band (a casing mode's
     /// frequency, an accelerometer's roll-off). Fitted at an edge of its range (within 2 %, see
     /// [`at_search_bound`]), such a feature sits at or beyond the band's edge: the data do not
-    /// show it, and whatever the trial gains comes from something else (a mode pushed to the
-    /// top of the band lifts the highest PSD bands). An amplitude at its edge still says the
-    /// effect is there, only stronger or weaker than the range allows.
+    /// show it, and whatever the trial gains comes from something else. An amplitude at its
+    /// edge still says the effect is there, only stronger or weaker than the range allows.
     pub fn places_a_feature(self) -> bool {
         matches!(self, Param::CasingModeHz | Param::SensorBandwidthHz)
     }

@@ -47,7 +47,7 @@ pub struct EffectTrial {
     pub tied_with_best: bool,
     /// The effect's main parameter places a spectral feature ([`Param::places_a_feature`]) and
     /// was fitted at an edge of its range: the feature lies outside what the data show. Such a
-    /// trial is ranked after every other and cannot be chosen.
+    /// trial is ranked after every other and cannot be chosen ([`OUTSIDE_BAND_NOTE`] says so).
     #[serde(default)]
     pub outside_band: bool,
     /// One sentence for the user.
@@ -65,6 +65,9 @@ pub struct EffectTrial {
     #[serde(default)]
     pub effect_explained: Option<f64>,
 }
+
+/// What the CLI and the app print under a trial that is [`EffectTrial::outside_band`].
+pub const OUTSIDE_BAND_NOTE: &str = "its feature was fitted at the edge of the band searched, outside what the data show: not a finding";
 
 /// The answer of [`diagnose`].
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -474,7 +477,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
             } else if unbent {
                 // Both starts; the better fit is the trial (a start from the uncalibrated values
                 // with one sweep can end worse than the bent calibration's).
-                match (from_calibrated(), from_uncalibrated()) {
+                match rayon::join(from_calibrated, from_uncalibrated) {
                     (Ok(a), Ok(b)) => Ok(if b.0.objective_after < a.0.objective_after { b } else { a }),
                     (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
                     (Err(e), Err(_)) => Err(e),
@@ -519,10 +522,8 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     }
     // Ablation: each fitted machine once more without its effect.
     let trials: Vec<EffectTrial> = stage2
-        .into_iter()
-        .chain(rest)
-        .collect::<Vec<_>>()
         .into_par_iter()
+        .chain(rest)
         .map(|(mut t, fm)| {
             let mut off = fm;
             off.effects.disable(t.effect);

@@ -142,7 +142,7 @@ impl ModelLoopView {
                 ui.end_row();
             });
             ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, also start the trials from the uncalibrated values")
-                .on_hover_text("each trial scans its effect on a grid and re-does the calibration with it (about six times slower): for a model the calibration bent to stand in for what is missing");
+                .on_hover_text("each trial scans its effect on a grid and re-does the calibration with it (about seven times slower): for a model the calibration bent to stand in for what is missing");
             let mut all = s.loop_candidates.is_empty();
             if ui.checkbox(&mut all, "try every applicable effect the model lacks").changed() {
                 s.loop_candidates = if all { Vec::new() } else { EffectKind::ALL.into_iter().filter(|k| !machine.effects.is_on(*k) && Effects::applicable(*k, machine)).collect() };
@@ -298,7 +298,7 @@ impl ModelLoopView {
                 let fitted: Vec<String> = t.parameter.iter().chain(t.extra_parameters.iter()).map(|(p, v)| format!("{} = {} {}", p.name(), fmt_num(*v), unit_of(p.name())).trim_end().to_string()).collect();
                 let fitted = if fitted.is_empty() { "a switch".to_string() } else { fitted.join(", ") };
                 let itself = t.effect_explained.map_or(String::new(), |e| format!("; switching it off again in the fitted model costs {:.0} %", e * 100.0));
-                let edge = if t.outside_band { "; its feature was fitted at the edge of the band, outside what the data show: not a finding" } else { "" };
+                let edge = if t.outside_band { format!("; {}", crate::compare::diagnose::OUTSIDE_BAND_NOTE) } else { String::new() };
                 ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
             }
         });
