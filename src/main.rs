@@ -327,7 +327,7 @@ fn run_batch(job_path: &Path, out: Option<&Path>, quiet: bool) -> Result<()> {
             }
             if let Some(l) = &i.model_loop {
                 for r in &l.history {
-                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}); applied: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change("-"));
+                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}); applied: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
                 }
                 eprintln!("twinscope: {} model loop verdict: {} → {}", i.file, l.verdict, l.history_csv);
             }
@@ -556,7 +556,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     if history.len() > 1 || rounds > 1 {
         println!("\nhistory:");
         for r in &history {
-            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}), applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change("-"));
+            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}), applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
         }
     }
     if let Some(p) = json {
@@ -647,7 +647,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         let r = hidden::run_multi_case(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 2), &opts)?;
         let names = |ks: &[EffectKind]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ");
         let tp = r.true_parameters.iter().map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).collect::<Vec<_>>().join(", ");
-        let steps = r.history.iter().map(|h| format!("{:.1} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.change("nothing significant"))).collect::<Vec<_>>().join("; ");
+        let steps = r.history.iter().map(|h| format!("{:.1} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.change_with_values("nothing significant"))).collect::<Vec<_>>().join("; ");
         let missed = r.missed.iter().map(|(k, at)| match at {
             Some((i, e)) => format!("{} ({i}, {:.0} %)", k.name(), e * 100.0),
             None => format!("{} (not tried)", k.name()),

@@ -282,6 +282,19 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     let i = r.history.iter().position(|h| h.removed.is_some()).unwrap_or_else(|| panic!("no replacement: {steps:#?}"));
     assert_eq!((r.history[i].removed, r.history[i].applied), (Some(EffectKind::Unbalance), Some(EffectKind::Misalignment)), "{}", r.history[i].verdict);
     assert!(r.history[i + 1].objective < r.history[i].objective, "{steps:#?}");
+    // Each round records the values it put in: round 1 the unbalance as its trial fitted it
+    // (6.8e-3 kg·m, 7× the hidden range: it stands in for both), the replacement the
+    // misalignment force as the calibration fitted it.
+    let values: Vec<_> = r.history.iter().map(|h| h.change_with_values("-")).collect();
+    eprintln!("{values:#?}");
+    match r.history[0].applied_values[..] {
+        [(Param::UnbalanceKgM, u)] => assert!(u > 2e-3, "round 1 unbalance {u:.3e} kg·m"),
+        ref v => panic!("round 1 values {v:?}"),
+    }
+    match r.history[i].applied_values[..] {
+        [(Param::Misalignment2xN, f)] => assert!(f > 1.0 && f < 1000.0, "replacement force {f} N"),
+        ref v => panic!("replacement values {v:?}"),
+    }
     assert!(r.false_claims.is_empty(), "false claims {:?}", r.false_claims);
     assert!(r.applied.contains(&EffectKind::Misalignment), "applied {:?}", r.applied);
 }

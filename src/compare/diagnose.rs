@@ -620,6 +620,11 @@ pub struct Round {
     /// (see [`run_loop`]); `applied` is then the one put in its place.
     #[serde(default)]
     pub removed: Option<EffectKind>,
+    /// The applied effect's parameters as they went into the model (see
+    /// [`Param::of_effect`]): the trial's fit, or for a replacement the calibration's fit. The
+    /// rounds after re-fit them; the final values are in the last round's calibration.
+    #[serde(default)]
+    pub applied_values: Vec<(Param, f64)>,
 }
 
 impl Round {
@@ -632,6 +637,28 @@ impl Round {
             _ => none.to_string(),
         }
     }
+
+    /// [`change`](Self::change) with the applied effect's values, e.g.
+    /// `casing_modes (frequency_hz = 3.37e3) in place of sensor_response`.
+    pub fn change_with_values(&self, none: &str) -> String {
+        let Some(b) = self.applied else { return none.to_string() };
+        let values = effect_values_text(&self.applied_values);
+        let added = if values.is_empty() { b.name().to_string() } else { format!("{} ({values})", b.name()) };
+        match self.removed {
+            Some(a) => format!("{added} in place of {}", a.name()),
+            None => added,
+        }
+    }
+}
+
+/// The values of an effect's parameters in a machine, in [`Param::of_effect`] order.
+pub fn effect_values(m: &Machine, k: EffectKind) -> Vec<(Param, f64)> {
+    Param::of_effect(k).into_iter().filter_map(|p| p.get(m).map(|v| (p, v))).collect()
+}
+
+/// `name = value, ...` with the last part of each parameter's path, 4 significant digits.
+pub fn effect_values_text(values: &[(Param, f64)]) -> String {
+    values.iter().map(|(p, v)| format!("{} = {v:.3e}", p.name().rsplit('.').next().unwrap_or(""))).collect::<Vec<_>>().join(", ")
 }
 
 /// A diagnosis's ranking as kept in a [`Round`]: (effect, objective after, explained share).
@@ -766,13 +793,14 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             None => diagnose_with(&current, &reference, &opts, progress)?,
         };
         let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::INFINITY);
-        let mut round = Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: ranking_of(&d), applied: d.best, removed: None };
+        let mut round = Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: ranking_of(&d), applied: d.best, removed: None, applied_values: Vec::new() };
         if let Some(k) = d.best {
             let mut next = cal.clone();
             match d.trials.iter().find(|t| t.effect == k) {
                 Some(t) => apply_trial(&mut next, t),
                 None => next.effects.enable(k),
             }
+            round.applied_values = effect_values(&next, k);
             if !opts.refit_effects.contains(&k) {
                 opts.refit_effects.push(k);
             }
@@ -808,6 +836,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 );
                 round.applied = Some(b);
                 round.removed = Some(a);
+                round.applied_values = effect_values(&cal2, b);
                 history.push(round);
                 current = swapped;
                 opts = o;
@@ -952,7 +981,7 @@ mod tests {
 
     fn round(n: usize, ranking: Vec<(EffectKind, f64)>, applied: Option<EffectKind>, removed: Option<EffectKind>) -> Round {
         let ranking = ranking.into_iter().map(|(k, e)| (k, 1.0 - e, e)).collect();
-        Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 1.0, objective: 1.0, floor_objective: 0.5, verdict: String::new(), ranking, applied, removed }
+        Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 1.0, objective: 1.0, floor_objective: 0.5, verdict: String::new(), ranking, applied, removed, applied_values: vec![] }
     }
 
     #[test]
@@ -962,6 +991,23 @@ mod tests {
         assert_eq!(applied_effects(&h), vec![Misalignment, PathModulation]);
         assert_eq!(h[1].change("-"), "misalignment in place of unbalance");
         assert_eq!(h[3].change("-"), "-");
+    }
+
+    #[test]
+    fn a_round_reports_the_values_it_applied() {
+        use EffectKind::*;
+        let mut m = crate::model::preset("cwru_6205_inner").unwrap();
+        apply_trial(&mut m, &fitted(LoadZone, Some((Param::RadialLoadN, 345.0)), vec![(Param::RadialClearanceM, -3e-6)]));
+        let values = effect_values(&m, LoadZone);
+        assert_eq!(values, vec![(Param::RadialLoadN, 345.0), (Param::RadialClearanceM, -3e-6)]);
+        let mut r = round(2, vec![], Some(LoadZone), Some(PathModulation));
+        r.applied_values = values;
+        assert_eq!(r.change_with_values("-"), "load_zone (radial_load_n = 3.450e2, radial_clearance_m = -3.000e-6) in place of path_modulation");
+        // An effect that is off has no values; a round without values reads as `change`.
+        assert!(effect_values(&m, Slip).is_empty());
+        r.applied_values.clear();
+        assert_eq!(r.change_with_values("-"), r.change("-"));
+        assert_eq!(round(3, vec![], None, None).change_with_values("nothing"), "nothing");
     }
 
     #[test]

@@ -402,6 +402,7 @@ impl Workbench {
         let n = model.history.len();
         if let Some(last) = model.history.last_mut() {
             last.applied = Some(effect);
+            last.applied_values = crate::compare::diagnose::effect_values(&m, effect);
         }
         model.history.push(Round {
             round: n + 1,
@@ -414,6 +415,7 @@ impl Workbench {
             verdict: format!("after adding {} (the trial's fit; Find missing effect again recalibrates)", effect.name()),
             applied: None,
             removed: None,
+            applied_values: Vec::new(),
         });
         model.replace_machine(m);
         self.session.tell(Level::Info, format!("{} added: envelope NRMSE {:.1} -> {:.1} % in the trial; simulating the new model", effect.name(), t.envelope_nrmse_before, t.envelope_nrmse_after));
@@ -558,7 +560,7 @@ impl Workbench {
                 let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
                 let effects_on = r.started_from.effects.enabled();
                 let model = &mut self.session.model;
-                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: crate::compare::diagnose::ranking_of(d), applied: None, removed: None };
+                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: crate::compare::diagnose::ranking_of(d), applied: None, removed: None, applied_values: Vec::new() };
                 match model.history.last_mut() {
                     // The same model again (after an Add, or a re-run): this search calibrates it.
                     Some(last) if last.applied.is_none() && last.effects_on == effects_on => *last = Round { round: last.round, ..round },

@@ -194,7 +194,10 @@ impl ModelLoopView {
                 ui.label(format!("{:.1}", r.objective));
                 ui.label(if r.floor_objective > 0.0 { format!("{:.1}", r.floor_objective) } else { "-".into() }).on_hover_text("objective of the model against realisations of itself: what a perfect model would still score");
                 ui.label(r.effects_on.iter().map(|k| k.name()).collect::<Vec<_>>().join(", "));
-                ui.label(r.change("-"));
+                let added = ui.label(r.change("-"));
+                if !r.applied_values.is_empty() {
+                    added.on_hover_text(r.change_with_values("-"));
+                }
                 ui.end_row();
             }
         });
