@@ -225,11 +225,15 @@ dir = "out"
     let l = &summary["inputs"][0]["model_loop"];
     let history = l["history"].as_array().expect("a loop history");
     assert_eq!(history[0]["applied"], "load_zone", "round 1: {}", history[0]["verdict"]);
+    // The round records the load it applied (with the clearance that sets the zone's extent).
+    assert_eq!(history[0]["applied_values"][0][0], "radial_load_n", "{}", history[0]);
+    assert!(history[0]["applied_values"][0][1].as_f64().is_some_and(|v| v > 0.0), "{}", history[0]);
     let nrmse: Vec<f64> = history.iter().map(|r| r["envelope_nrmse"].as_f64().unwrap()).collect();
     assert!(nrmse.len() == 2 && nrmse[1] < nrmse[0], "envelope NRMSE per round {nrmse:?}");
     let csv = std::fs::read_to_string(l["history_csv"].as_str().unwrap()).unwrap();
-    assert!(csv.starts_with("round,effects_on,envelope_nrmse_percent,objective,floor_objective,applied,removed,verdict"), "{csv}");
+    assert!(csv.starts_with("round,effects_on,envelope_nrmse_percent,objective,floor_objective,applied,applied_values,removed,verdict"), "{csv}");
     assert_eq!(csv.lines().count(), 1 + history.len());
+    assert!(csv.lines().nth(1).is_some_and(|l| l.contains("load_zone,\"radial_load_n = ")), "{csv}");
     let final_machine = std::fs::read_to_string(l["final_machine"].as_str().unwrap()).unwrap();
     assert!(final_machine.contains("[effects.load_zone]"), "{final_machine}");
     assert!(r.stderr.contains("model loop round 1"), "{}", r.stderr);
