@@ -641,8 +641,8 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     if groups.is_empty() {
         return Ok(());
     }
-    println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims | missed (rank, explains in the last round) |");
-    println!("|---|---|---:|---|---|---|---|");
+    println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims | missed (rank, explains in the last round) | applied, as fitted at the end |");
+    println!("|---|---|---:|---|---|---|---|---|");
     for (j, g) in groups.iter().enumerate() {
         let r = hidden::run_multi_case(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 2), &opts)?;
         let names = |ks: &[EffectKind]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ");
@@ -653,14 +653,15 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             None => format!("{} (not tried)", k.name()),
         }).collect::<Vec<_>>().join(", ");
         println!(
-            "| {} | {} | {:.1} | {} | {} | {} | {} |",
+            "| {} | {} | {:.1} | {} | {} | {} | {} | {} |",
             names(&r.hidden),
             if tp.is_empty() { "-".into() } else { tp },
             r.snr_db,
             steps,
             if r.found_all { "yes" } else { "no" },
             if r.false_claims.is_empty() { "none".into() } else { names(&r.false_claims) },
-            if missed.is_empty() { "-".into() } else { missed }
+            if missed.is_empty() { "-".into() } else { missed },
+            if r.final_values.is_empty() { "-".into() } else { twinscope::compare::diagnose::effect_values_text(&r.final_values) }
         );
         multi.push(r);
         write_json(&results, &multi)?;

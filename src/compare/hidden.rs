@@ -189,6 +189,10 @@ pub struct MultiCaseResult {
     pub missed: Vec<(EffectKind, Option<(usize, f64)>)>,
     /// The loop ended on "nothing significant is missing" (and not on the round limit).
     pub ended_clean: bool,
+    /// The applied effects' parameters at the end: as the last round's calibration re-fitted
+    /// them, or as applied for an effect the last round put in.
+    #[serde(default)]
+    pub final_values: Vec<(Param, f64)>,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -200,8 +204,9 @@ pub fn run_multi_case(base: &Machine, hidden: &[EffectKind], seed: u64, duration
     let (mut truth, model_m, true_parameters, snr_db) = make_case_hiding(base, hidden, seed);
     truth.duration_s = duration_s;
     let measured = model::simulate(&truth)?;
-    let (_, history, _) = run_loop(&model_m, &measured, rounds, opts, &|_, _| true)?;
+    let (_, history, last) = run_loop(&model_m, &measured, rounds, opts, &|_, _| true)?;
     let applied = super::diagnose::applied_effects(&history);
+    let final_values = final_effect_values(&history, &last.calibration.parameters);
     let last_ranking = history.last().map(|r| r.ranking.as_slice()).unwrap_or_default();
     let missed = hidden.iter().filter(|k| !applied.contains(k)).map(|k| (*k, last_ranking.iter().position(|x| x.0 == *k).map(|i| (i + 1, last_ranking[i].2)))).collect();
     Ok(MultiCaseResult {
@@ -214,6 +219,65 @@ pub fn run_multi_case(base: &Machine, hidden: &[EffectKind], seed: u64, duration
         ended_clean: history.last().is_some_and(|r| r.applied.is_none()),
         applied,
         history,
+        final_values,
         seconds: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// The parameters of the effects a loop's `history` leaves applied, as the last diagnosed
+/// round's calibration (`calibrated`) fitted them; an effect applied by the last round itself
+/// was not calibrated again, so it keeps the values it was applied with.
+fn final_effect_values(history: &[Round], calibrated: &[(Param, f64)]) -> Vec<(Param, f64)> {
+    let last_applied = history.last().and_then(|r| r.applied);
+    super::diagnose::applied_effects(history)
+        .into_iter()
+        .flat_map(|k| {
+            let applied_with = history.iter().rev().find(|r| r.applied == Some(k)).map(|r| r.applied_values.clone()).unwrap_or_default();
+            if last_applied == Some(k) {
+                return applied_with;
+            }
+            applied_with.into_iter().map(|(p, v)| (p, calibrated.iter().find(|c| c.0 == p).map_or(v, |c| c.1))).collect()
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn round(n: usize, applied: Option<(EffectKind, Param, f64)>, removed: Option<EffectKind>) -> Round {
+        Round {
+            round: n,
+            effects_on: vec![],
+            domains: vec![],
+            envelope_nrmse: 1.0,
+            objective: 1.0,
+            floor_objective: 0.5,
+            verdict: String::new(),
+            ranking: vec![],
+            applied: applied.map(|a| a.0),
+            removed,
+            applied_values: applied.map(|(_, p, v)| vec![(p, v)]).unwrap_or_default(),
+        }
+    }
+
+    #[test]
+    fn final_values_are_the_last_calibration_s_except_for_what_the_last_round_applied() {
+        use EffectKind::*;
+        // Round 1 applies an unbalance, round 2 replaces it by a misalignment, round 3 (the
+        // round limit) applies a path modulation that no calibration has re-fitted since.
+        let h = vec![
+            round(1, Some((Unbalance, Param::UnbalanceKgM, 6.8e-3)), None),
+            round(2, Some((Misalignment, Param::Misalignment2xN, 45.5)), Some(Unbalance)),
+            round(3, Some((PathModulation, Param::PathModulationDepth, 0.3)), None),
+        ];
+        let calibrated = [(Param::ResonanceHz, 1300.0), (Param::Misalignment2xN, 40.0), (Param::PathModulationDepth, 0.9)];
+        assert_eq!(final_effect_values(&h, &calibrated), vec![(Param::Misalignment2xN, 40.0), (Param::PathModulationDepth, 0.3)]);
+        // A loop that ended clean: every applied effect as the last calibration left it; one the
+        // calibration did not re-fit keeps its applied value.
+        let mut h2 = h[..2].to_vec();
+        h2.push(round(3, None, None));
+        assert_eq!(final_effect_values(&h2, &calibrated), vec![(Param::Misalignment2xN, 40.0)]);
+        assert_eq!(final_effect_values(&h2, &[]), vec![(Param::Misalignment2xN, 45.5)]);
+    }
 }
