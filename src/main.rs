@@ -199,17 +199,18 @@ enum Command {
 /// Options of the missing-effect search shared by `diagnose` and `confusion`.
 #[derive(clap::Args, Debug)]
 struct SearchArgs {
-    /// When the calibration pins a parameter at the edge of its range, also start every trial
+    /// Start the trials only from the calibrated model, even when the calibration pins a
+    /// parameter at the edge of its range. By default such a round also starts every trial
     /// from the uncalibrated values (grid scan of the effect, then one calibration sweep) and
-    /// keep the better fit: slower, for a model the calibration bent to stand in for what is
+    /// keeps the better fit: slower, for a model the calibration bent to stand in for what is
     /// missing.
     #[arg(long)]
-    unbend_pinned: bool,
+    no_unbend: bool,
 }
 
 impl SearchArgs {
     fn options(&self) -> LoopOptions {
-        LoopOptions { unbend_pinned: self.unbend_pinned, ..Default::default() }
+        LoopOptions { unbend_pinned: !self.no_unbend, ..Default::default() }
     }
 }
 
@@ -521,9 +522,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         }
     }
     if last.unbent {
-        println!("  the trials also started from the uncalibrated values (--unbend-pinned), not only from this bent calibration");
+        println!("  the trials also started from the uncalibrated values, not only from this bent calibration (--no-unbend turns this off)");
     } else if !cal.at_bound.is_empty() {
-        println!("  (--unbend-pinned also starts the trials from the uncalibrated values)");
+        println!("  (the trials started only from this bent calibration: --no-unbend)");
     }
     println!("\nwhere the calibrated model fails (envelope, share of squared error):");
     for (f, s) in last.residual_map.envelope_families.iter().take(6) {

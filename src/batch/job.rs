@@ -190,12 +190,16 @@ pub struct LoopSpec {
     #[serde(default = "LoopSpec::default_fit_duration_s")]
     pub fit_duration_s: f64,
     /// When the calibration pins a parameter, also start the trials from the uncalibrated
-    /// values (`LoopOptions::unbend_pinned`). Default false.
-    #[serde(default)]
+    /// values (`LoopOptions::unbend_pinned`). Default true.
+    #[serde(default = "LoopSpec::default_unbend_pinned")]
     pub unbend_pinned: bool,
 }
 
 impl LoopSpec {
+    fn default_unbend_pinned() -> bool {
+        true
+    }
+
     fn default_rounds() -> usize {
         3
     }
@@ -460,5 +464,19 @@ impl Job {
             }
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_model_loop_unbends_pinned_calibrations_unless_told_not_to() {
+        let chain = Chain { name: "none".into(), description: String::new(), stages: Vec::new() };
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
+        assert!(spec.options(&chain).unwrap().unbend_pinned);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_pinned = false").unwrap();
+        assert!(!spec.options(&chain).unwrap().unbend_pinned);
     }
 }

@@ -62,7 +62,7 @@ impl Default for Settings {
             loop_evaluations_per_parameter: LoopOptions::default().evaluations_per_parameter,
             loop_sweeps: LoopOptions::default().sweeps,
             loop_candidates: Vec::new(),
-            loop_unbend_pinned: false,
+            loop_unbend_pinned: true,
         }
     }
 }

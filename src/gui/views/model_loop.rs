@@ -260,7 +260,7 @@ impl ModelLoopView {
         }
         if !cal.at_bound.is_empty() {
             let names: Vec<&str> = cal.at_bound.iter().map(|b| b.0.name()).collect();
-            let hint = if d.unbent { "the trials also started from the uncalibrated values" } else { "Search settings > unbend also starts the trials from the uncalibrated values" };
+            let hint = if d.unbent { "the trials also started from the uncalibrated values" } else { "unbend is off in Search settings: the trials started only from this calibration" };
             ui.colored_label(ui.visuals().warn_fg_color, format!("at the edge of its search range (not estimated; may stand in for a missing effect): {}; {hint}", names.join(", ")))
                 .on_hover_text(cal.at_bound.iter().map(|(p, lo, hi)| format!("{}: range {} – {}", p.name(), fmt_num(*lo), fmt_num(*hi))).collect::<Vec<_>>().join("\n"));
         }
