@@ -273,8 +273,12 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     // round 1 or 2. Cut further, to the four effects that matter, misalignment joins round 2's
     // three stage-2 re-fits, which lower the unbalance to 7.9e-4 kg·m, and is applied beside it:
     // the loop then ends with the unbalance still on (a false claim) but no replacement needed.
+    // Unbending is off: round 1's calibration pins a parameter, and trials that also start from
+    // the uncalibrated values apply the misalignment at once (42.5 N, envelope NRMSE 13.5 →
+    // 1.1 %; README "Two hidden effects"), so no replacement would be needed. This test is about
+    // the replacement step.
     use EffectKind::*;
-    let opts = LoopOptions { candidates: vec![Unbalance, Misalignment, PathModulation, ExtendedFault, ToothFault, BeltDrive, SpeedFluctuation], ..Default::default() };
+    let opts = LoopOptions { unbend_pinned: false, candidates: vec![Unbalance, Misalignment, PathModulation, ExtendedFault, ToothFault, BeltDrive, SpeedFluctuation], ..Default::default() };
     let r = hidden::run_multi_case(&base, &hide, REPLACEMENT_SEED, 10.0, 3, &opts).unwrap();
     let steps: Vec<_> = r.history.iter().map(|h| (h.objective, h.floor_objective, h.change("-"), h.verdict.clone())).collect();
     eprintln!("true {:?}, SNR {:.1} dB; rounds {steps:#?}", r.true_parameters, r.snr_db);
