@@ -557,7 +557,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     if history.len() > 1 || rounds > 1 {
         println!("\nhistory:");
         for r in &history {
-            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}), applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
+            let pinned = if r.pinned.is_empty() { String::new() } else { format!(" (calibration pinned {})", r.pinned.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")) };
+            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}){pinned}, applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
         }
     }
     if let Some(p) = json {

@@ -625,6 +625,11 @@ pub struct Round {
     /// rounds after re-fit them; the final values are in the last round's calibration.
     #[serde(default)]
     pub applied_values: Vec<(Param, f64)>,
+    /// Parameters the round's calibration pinned at the edge of their range (see
+    /// [`Fit::at_bound`]); the round's trials then also started from the uncalibrated values
+    /// when unbending is on ([`Diagnosis::unbent`]).
+    #[serde(default)]
+    pub pinned: Vec<Param>,
 }
 
 impl Round {
@@ -793,7 +798,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             None => diagnose_with(&current, &reference, &opts, progress)?,
         };
         let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::INFINITY);
-        let mut round = Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: ranking_of(&d), applied: d.best, removed: None, applied_values: Vec::new() };
+        let mut round = Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: ranking_of(&d), applied: d.best, removed: None, applied_values: Vec::new(), pinned: d.calibration.at_bound.iter().map(|b| b.0).collect() };
         if let Some(k) = d.best {
             let mut next = cal.clone();
             match d.trials.iter().find(|t| t.effect == k) {
@@ -981,7 +986,7 @@ mod tests {
 
     fn round(n: usize, ranking: Vec<(EffectKind, f64)>, applied: Option<EffectKind>, removed: Option<EffectKind>) -> Round {
         let ranking = ranking.into_iter().map(|(k, e)| (k, 1.0 - e, e)).collect();
-        Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 1.0, objective: 1.0, floor_objective: 0.5, verdict: String::new(), ranking, applied, removed, applied_values: vec![] }
+        Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 1.0, objective: 1.0, floor_objective: 0.5, verdict: String::new(), ranking, applied, removed, applied_values: vec![], pinned: vec![] }
     }
 
     #[test]

@@ -258,6 +258,7 @@ mod tests {
             applied: applied.map(|a| a.0),
             removed,
             applied_values: applied.map(|(_, p, v)| vec![(p, v)]).unwrap_or_default(),
+            pinned: vec![],
         }
     }
 
