@@ -575,6 +575,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
 
 #[allow(clippy::too_many_arguments)]
 fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
+    use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;
     use twinscope::model::{self, EffectKind, Effects};
     let base = model::preset(preset)?;
@@ -620,7 +621,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     }
     for (i, h) in cases.iter().enumerate() {
         let r = hidden::run_case(&base, *h, seed + i as u64, duration_s, &opts)?;
-        let tp = r.true_parameter.map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).unwrap_or_else(|| "-".into());
+        let tp = r.true_parameter.map(|pv| effect_values_text(&[pv])).unwrap_or_else(|| "-".into());
         println!(
             "| {} | {} | {:.1} | {} | {} | {:.1} → {:.1} | {:.0} |",
             h.map(|k| k.name()).unwrap_or("(control)"),
@@ -648,7 +649,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     for (j, g) in groups.iter().enumerate() {
         let r = hidden::run_multi_case(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 2), &opts)?;
         let names = |ks: &[EffectKind]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ");
-        let tp = r.true_parameters.iter().map(|(p, v)| format!("{} = {:.3e}", p.name().rsplit('.').next().unwrap_or(""), v)).collect::<Vec<_>>().join(", ");
+        let tp = effect_values_text(&r.true_parameters);
         let steps = r.history.iter().map(|h| format!("{:.1} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.change_with_values("nothing significant"))).collect::<Vec<_>>().join("; ");
         let missed = r.missed.iter().map(|(k, at)| match at {
             Some((i, e)) => format!("{} ({i}, {:.0} %)", k.name(), e * 100.0),
@@ -663,7 +664,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             if r.found_all { "yes" } else { "no" },
             if r.false_claims.is_empty() { "none".into() } else { names(&r.false_claims) },
             if missed.is_empty() { "-".into() } else { missed },
-            if r.final_values.is_empty() { "-".into() } else { twinscope::compare::diagnose::effect_values_text(&r.final_values) }
+            if r.final_values.is_empty() { "-".into() } else { effect_values_text(&r.final_values) }
         );
         multi.push(r);
         write_json(&results, &multi)?;

@@ -444,6 +444,13 @@ pub struct Fit {
     pub at_bound: Vec<(Param, f64, f64)>,
 }
 
+impl Fit {
+    /// The parameters of [`Fit::at_bound`], without their ranges.
+    pub fn pinned(&self) -> Vec<Param> {
+        self.at_bound.iter().map(|b| b.0).collect()
+    }
+}
+
 /// Whether `x` ended within 2 % of the search range `[lo, hi]` (measured on the search scale,
 /// logarithmic or linear) of either edge. A calibrated parameter pinned there is not
 /// estimated: the optimiser pushed it as far as allowed, which is how a parameter bends to

@@ -161,7 +161,7 @@ pub fn run_case(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_
         floor_objective: d.floor_objective,
         objective_scatter: d.objective_scatter,
         trials: d.trials.clone(),
-        pinned: d.calibration.at_bound.iter().map(|b| b.0).collect(),
+        pinned: d.calibration.pinned(),
         unbent: d.unbent,
         seconds: t0.elapsed().as_secs_f64(),
     })

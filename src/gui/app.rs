@@ -561,7 +561,7 @@ impl Workbench {
                 let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
                 let effects_on = r.started_from.effects.enabled();
                 let model = &mut self.session.model;
-                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: crate::compare::diagnose::ranking_of(d), applied: None, removed: None, applied_values: Vec::new(), pinned: d.calibration.at_bound.iter().map(|b| b.0).collect() };
+                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: crate::compare::diagnose::ranking_of(d), applied: None, removed: None, applied_values: Vec::new(), pinned: d.calibration.pinned() };
                 match model.history.last_mut() {
                     // The same model again (after an Add, or a re-run): this search calibrates it.
                     Some(last) if last.applied.is_none() && last.effects_on == effects_on => *last = Round { round: last.round, ..round },
