@@ -91,6 +91,10 @@ enum Command {
         /// BPFI or 2×BSF by its fault location).
         #[arg(long)]
         fault_hz: Option<f64>,
+        /// Correct the simulated signal's transfer path with a smooth gain curve on N
+        /// log-spaced PSD bands before comparing (0 = off).
+        #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=64))]
+        path_correction: u16,
         /// Write the full comparison as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -206,11 +210,19 @@ struct SearchArgs {
     /// missing.
     #[arg(long)]
     no_unbend: bool,
+    /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
+    /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
+    /// path the model does not describe. Spectral-shape effects (casing modes, sensor
+    /// response) then compete only on what N bands cannot absorb.
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=64))]
+    path_correction: u16,
 }
 
 impl SearchArgs {
     fn options(&self) -> LoopOptions {
-        LoopOptions { unbend_pinned: !self.no_unbend, ..Default::default() }
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, ..Default::default() };
+        o.compare.path_correction_bands = self.path_correction as usize;
+        o
     }
 }
 
@@ -246,7 +258,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Some(Command::Bench(args)) => bench::run(&args),
-        Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, json.as_deref()),
+        Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, path_correction as usize, json.as_deref()),
         Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, LoopOptions { fit_duration_s, ..search.options() }, json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, json, search }) => confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, json.as_deref(), search.options()),
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
@@ -427,11 +439,11 @@ fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, dur
 }
 
 #[allow(clippy::too_many_arguments)]
-fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>, with: &[String], channel: Option<String>, band_hz: Option<Vec<f64>>, bearing: Option<String>, fault_hz: Option<f64>, json: Option<&Path>) -> Result<()> {
+fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>, with: &[String], channel: Option<String>, band_hz: Option<Vec<f64>>, bearing: Option<String>, fault_hz: Option<f64>, path_correction_bands: usize, json: Option<&Path>) -> Result<()> {
     use twinscope::compare::{self, diagnose::fault_frequency_hz, CompareOptions};
     use twinscope::model::{self, EffectKind};
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
-    let mut opts = CompareOptions { fault_frequency_hz: fault_hz, ..Default::default() };
+    let mut opts = CompareOptions { fault_frequency_hz: fault_hz, path_correction_bands, ..Default::default() };
     if let Some(f) = fault_hz {
         anyhow::ensure!(f.is_finite() && f > 0.0, "--fault-hz must be a positive frequency in Hz (got {f})");
     }
@@ -463,6 +475,10 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
         println!("{:<18} {:>9.3} {:>9.3} {:>6} {:>12.4e} {:>10.2}", d.domain, m.pearson, m.xcorr_peak, m.xcorr_lag, m.rmse, m.nrmse_percent);
     }
     println!("NRMSE normaliser: {}; simulated/measured RMS {:+.1} dB", opts.normaliser.name(), cmp.alignment.rms_ratio_db);
+    if let Some(pc) = &cmp.path_correction {
+        println!("transfer-path correction applied to the simulation (dB at band centres):");
+        println!("  {}", pc.centre_hz.iter().zip(&pc.gain_db).map(|(f, g)| format!("{f:.0} Hz {g:+.1}")).collect::<Vec<_>>().join(", "));
+    }
     let families = ff.map(|f| f.families()).unwrap_or_default();
     let map = compare::residual_map(&cmp, &families, meas.meta.shaft_speed_hz);
     println!("\nwhere the envelope error lives (share of squared error):");
@@ -520,6 +536,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             Some((_, lo, hi)) => println!("  {} = {:.6}   <- at the edge of its range {lo:.3e} – {hi:.3e}: not estimated; a parameter pushed this far may stand in for a missing effect", p.name(), v),
             None => println!("  {} = {:.6}", p.name(), v),
         }
+    }
+    if let Some(pc) = &last.path_correction {
+        println!("  transfer-path correction of the calibrated model (dB at band centres): {}", pc.centre_hz.iter().zip(&pc.gain_db).map(|(f, g)| format!("{f:.0} Hz {g:+.1}")).collect::<Vec<_>>().join(", "));
     }
     if last.unbent {
         println!("  the trials also started from the uncalibrated values, not only from this bent calibration (--no-unbend turns this off)");

@@ -97,3 +97,48 @@ fn the_fault_slice_is_at_the_fault_frequency_and_a_bad_one_is_refused() {
         }
     }
 }
+
+/// A transfer path the simulation lacks: a gain rising 12 dB per octave up to 2 kHz and flat
+/// above, applied to the measured side.
+fn through_path(s: &Signal) -> Signal {
+    use twinscope::dsp::path_correction::PathCorrection;
+    let path = PathCorrection { centre_hz: vec![250.0, 2000.0], gain_db: vec![-36.0, 0.0], level_db: 0.0 };
+    let mut out = s.clone();
+    out.samples = path.apply(&s.samples, s.fs_hz, 1.0).unwrap();
+    out
+}
+
+#[test]
+fn the_path_correction_takes_the_transfer_path_and_leaves_the_modulation() {
+    let with_path = |modulation: f64, seed: u64| through_path(&bearing_signal(12000.0, 2.0, modulation, seed));
+    let measured = with_path(0.5, 1);
+    let model = bearing_signal(12000.0, 2.0, 0.5, 11);
+    let plain = compare(&measured, &model, &opts()).unwrap();
+    let corrected = compare(&measured, &model, &CompareOptions { path_correction_bands: 24, ..opts() }).unwrap();
+    assert!(plain.path_correction.is_none());
+    let pc = corrected.path_correction.as_ref().expect("the correction is reported");
+    // The fitted curve follows the path where the signals have energy (impacts ring at 2.5 kHz,
+    // noise is white): -24 dB at 500 Hz, 0 dB from 2 kHz.
+    assert!((pc.gain_db_at(500.0) + 24.0).abs() < 3.0, "at 500 Hz: {:.1} dB", pc.gain_db_at(500.0));
+    assert!(pc.gain_db_at(3000.0).abs() < 1.5, "at 3 kHz: {:.1} dB", pc.gain_db_at(3000.0));
+    let nrmse = |c: &twinscope::compare::Comparison, d: &str| c.domain(d).unwrap().metrics.nrmse_percent;
+    assert!(nrmse(&corrected, "psd_db") < 0.3 * nrmse(&plain, "psd_db"), "PSD: {:.2} % corrected, {:.2} % plain", nrmse(&corrected, "psd_db"), nrmse(&plain, "psd_db"));
+    // A model without the shaft-rate modulation keeps its α = shaft error: a filter cannot make
+    // modulation.
+    let unmodulated = bearing_signal(12000.0, 2.0, 0.0, 11);
+    let right = compare(&measured, &model, &CompareOptions { path_correction_bands: 24, ..opts() }).unwrap();
+    let wrong = compare(&measured, &unmodulated, &CompareOptions { path_correction_bands: 24, ..opts() }).unwrap();
+    assert!(nrmse(&wrong, "scf_alpha_shaft") > 5.0 * nrmse(&right, "scf_alpha_shaft"), "α = shaft: {:.2} % without modulation, {:.2} % with", nrmse(&wrong, "scf_alpha_shaft"), nrmse(&right, "scf_alpha_shaft"));
+    assert!(nrmse(&wrong, "envelope") > 3.0 * nrmse(&right, "envelope"), "envelope: {:.2} % without modulation, {:.2} % with", nrmse(&wrong, "envelope"), nrmse(&right, "envelope"));
+}
+
+#[test]
+fn a_signal_corrected_against_itself_is_unchanged() {
+    let a = bearing_signal(12000.0, 2.0, 0.5, 1);
+    let c = compare(&a, &a, &CompareOptions { path_correction_bands: 24, ..opts() }).unwrap();
+    let pc = c.path_correction.as_ref().unwrap();
+    assert!(pc.gain_db.iter().all(|g| g.abs() < 1e-9), "{:?}", pc.gain_db);
+    for d in &c.domains {
+        assert!(d.metrics.rmse < 1e-9, "{}: {:?}", d.domain, d.metrics);
+    }
+}

@@ -193,6 +193,10 @@ pub struct LoopSpec {
     /// values (`LoopOptions::unbend_pinned`). Default true.
     #[serde(default = "LoopSpec::default_unbend_pinned")]
     pub unbend_pinned: bool,
+    /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
+    /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
+    #[serde(default)]
+    pub path_correction_bands: usize,
 }
 
 impl LoopSpec {
@@ -225,7 +229,11 @@ impl LoopSpec {
         if !(self.fit_duration_s.is_finite() && self.fit_duration_s >= 0.2) {
             return Err(format!("`model_loop.fit_duration_s` = {}: must be at least 0.2 s", self.fit_duration_s));
         }
+        if self.path_correction_bands > 64 {
+            return Err(format!("`model_loop.path_correction_bands` = {}: must be 0 (off) to 64", self.path_correction_bands));
+        }
         let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, ..Default::default() };
+        o.compare.path_correction_bands = self.path_correction_bands;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
             chain::Op::Bandpass(b) => Some(b.pass_band_hz),
             _ => None,
@@ -478,5 +486,17 @@ mod tests {
         assert!(spec.options(&chain).unwrap().unbend_pinned);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_pinned = false").unwrap();
         assert!(!spec.options(&chain).unwrap().unbend_pinned);
+    }
+
+    #[test]
+    fn a_model_loop_corrects_the_transfer_path_only_when_asked() {
+        let chain = Chain { name: "none".into(), description: String::new(), stages: Vec::new() };
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().compare.path_correction_bands, 0);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npath_correction_bands = 24").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().compare.path_correction_bands, 24);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npath_correction_bands = 65").unwrap();
+        let e = spec.options(&chain).unwrap_err();
+        assert!(e.contains("path_correction_bands") && e.contains("65"), "{e}");
     }
 }

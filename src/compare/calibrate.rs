@@ -350,7 +350,10 @@ pub fn objective(c: &Comparison, w: &[f64; 3]) -> f64 {
 }
 
 /// Simulates `m` for the fit duration, applies the closed-form gain (mean PSD dB offset), and
-/// compares. Returns the comparison and the gain applied.
+/// compares. Returns the comparison and the gain applied. With
+/// [`CompareOptions::path_correction_bands`] the comparison has already fitted a transfer-path
+/// correction to this simulation (closed form too, like the gain), so every evaluation is
+/// judged after its own best smooth path.
 pub fn evaluate(m: &Machine, reference: &Reference, opts: &LoopOptions) -> Result<(Comparison, f64), LoopError> {
     let mut mm = m.clone();
     mm.duration_s = opts.fit_duration_s.min(reference.measured().duration_s());
@@ -363,9 +366,12 @@ pub fn evaluate(m: &Machine, reference: &Reference, opts: &LoopOptions) -> Resul
     if !off_db.is_finite() {
         return Ok((c, 1.0));
     }
-    // PSD offset in dB of power: the amplitude gain is 10^(off/20).
+    // PSD offset in dB of power: the amplitude gain is 10^(off/20). With a transfer-path
+    // correction the level is already in it (what is left is the interpolation's small offset);
+    // the gain reported is the overall level, the correction's mean.
     apply_gain_db(&mut c, off_db, reference.options());
-    Ok((c, 10f64.powf(off_db / 20.0)))
+    let level_db = off_db + c.path_correction.as_ref().map_or(0.0, |p| p.level_db);
+    Ok((c, 10f64.powf(level_db / 20.0)))
 }
 
 /// NRMSE (%) of each domain of `before` with its value in `after`.

@@ -104,6 +104,10 @@ pub struct Diagnosis {
     /// calibration pinned a parameter (`LoopOptions::unbend_pinned`).
     #[serde(default)]
     pub unbent: bool,
+    /// The transfer-path correction fitted to the calibrated model
+    /// (`CompareOptions::path_correction_bands`); `None` when off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path_correction: Option<crate::dsp::path_correction::PathCorrection>,
 }
 
 /// Characteristic frequencies of a machine at its speed: shaft, bearing fault families of the
@@ -538,7 +542,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     }
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction }))
 }
 
 /// A stage-1 trial and its fitted machine, or why it could not be run.

@@ -61,6 +61,12 @@ pub struct CompareOptions {
     pub max_speed_mismatch_percent: f64,
     /// Fault frequency for the SCF α-slice (Hz); `None` = only α = 0 and shaft speed.
     pub fault_frequency_hz: Option<f64>,
+    /// Transfer-path correction ([`dsp::path_correction`]): before comparing, the simulated
+    /// signal is filtered by a gain curve fitted on this many log-spaced bands of the PSD band
+    /// (from 4 Welch bins up), so the comparison judges the model on what a smooth transfer
+    /// path cannot give (lines, modulation, cyclic content, narrow resonances). 0 (the default):
+    /// off, only the overall gain is solved (by the loop).
+    pub path_correction_bands: usize,
 }
 
 impl Default for CompareOptions {
@@ -75,6 +81,7 @@ impl Default for CompareOptions {
             normaliser: Normaliser::Range,
             max_speed_mismatch_percent: 5.0,
             fault_frequency_hz: None,
+            path_correction_bands: 0,
         }
     }
 }
@@ -121,6 +128,10 @@ pub struct Comparison {
     pub alignment: Alignment,
     /// One entry per domain.
     pub domains: Vec<DomainComparison>,
+    /// The transfer-path correction applied to the simulated signal before comparing
+    /// ([`CompareOptions::path_correction_bands`]); `None` when off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path_correction: Option<dsp::path_correction::PathCorrection>,
 }
 
 impl Comparison {
@@ -314,6 +325,13 @@ impl Reference {
         let fs = al.fs_hz;
         let max_lag = 20;
         let mut domains = Vec::new();
+        let (sim, path_correction) = match opts.path_correction_bands {
+            0 => (sim, None),
+            n_bands => {
+                let c = self.fit_path_correction(&md, &sim, fs, al.speed_ratio, n_bands)?;
+                (c.apply(&sim, fs, al.speed_ratio).map_err(dsp_err("path correction"))?, Some(c))
+            }
+        };
 
         let es = envelope_with_taps(&sim, fs, &self.taps, opts)?;
         let es_on = onto_axis(&md.envelope, &es, al.speed_ratio);
@@ -353,7 +371,21 @@ impl Reference {
                 });
             }
         }
-        Ok(Comparison { alignment: al, domains })
+        Ok(Comparison { alignment: al, domains, path_correction })
+    }
+
+    /// The transfer-path correction of an aligned simulated signal: its Welch PSD on the
+    /// measured axis against the measured one, on `n_bands` log-spaced bands of the PSD band.
+    fn fit_path_correction(&self, md: &MeasuredDomains, sim: &[f64], fs: f64, speed_ratio: f64, n_bands: usize) -> Result<dsp::path_correction::PathCorrection, CompareError> {
+        let opts = &self.opts;
+        let nperseg = opts.psd_nperseg.min(sim.len());
+        let wp = dsp::welch::WelchParams { nperseg, ..Default::default() };
+        let ps = dsp::welch::welch_psd(sim, fs, &wp).map_err(dsp_err("psd"))?.to_spectrum(&self.measured.unit);
+        let ps_db: Vec<f64> = onto_axis(&md.psd, &ps, speed_ratio).iter().map(|v| db(*v)).collect();
+        let (plo, phi) = (md.psd.frequency_hz.first().copied().unwrap_or(0.0), md.psd.frequency_hz.last().copied().unwrap_or(fs / 2.0));
+        let lo = plo.max(4.0 * fs / nperseg as f64);
+        let bands = dsp::path_correction::log_bands(lo, phi, n_bands).map_err(|e| CompareError::Parameter { name: "path_correction_bands", reason: format!("PSD band {plo:.0}–{phi:.0} Hz: {e}") })?;
+        dsp::path_correction::fit_path_correction(&md.psd.frequency_hz, &md.psd_db, &ps_db, &bands).map_err(dsp_err("path correction"))
     }
 }
 

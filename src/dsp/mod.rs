@@ -7,6 +7,7 @@ pub mod error;
 pub mod fft;
 pub mod lowpass;
 pub mod normalise;
+pub mod path_correction;
 pub mod remez;
 pub mod resample;
 pub mod scf;

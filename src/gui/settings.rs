@@ -43,6 +43,9 @@ pub struct Settings {
     /// Model loop: also start the trials from the uncalibrated values when the calibration pins
     /// a parameter at the edge of its range (`LoopOptions::unbend_pinned`).
     pub loop_unbend_pinned: bool,
+    /// Model loop: transfer-path correction bands (`CompareOptions::path_correction_bands`;
+    /// 0 = off).
+    pub loop_path_correction_bands: usize,
 }
 
 impl Default for Settings {
@@ -63,6 +66,7 @@ impl Default for Settings {
             loop_sweeps: LoopOptions::default().sweeps,
             loop_candidates: Vec::new(),
             loop_unbend_pinned: true,
+            loop_path_correction_bands: 0,
         }
     }
 }
@@ -110,7 +114,7 @@ impl Settings {
     /// The loop options from these settings, comparing with `compare` (the chain's band).
     pub fn loop_options(&self, compare: CompareOptions) -> LoopOptions {
         LoopOptions {
-            compare,
+            compare: CompareOptions { path_correction_bands: self.loop_path_correction_bands.min(64), ..compare },
             fit_duration_s: self.loop_fit_duration_s,
             evaluations_per_parameter: self.loop_evaluations_per_parameter,
             sweeps: self.loop_sweeps,
