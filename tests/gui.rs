@@ -473,10 +473,13 @@ fn model_loop_offers_a_replacement_when_stuck() {
         let model = &mut h.state_mut().session.model;
         model.replace_machine(m.clone());
         model.history = vec![round(1, vec![(Unbalance, 9.0, 0.66), (Misalignment, 9.2, 0.63), (Slip, 11.0, 0.10)], Some(Unbalance)), round(2, vec![], None)];
-        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, verdict: "nothing significant is missing".into(), ..Default::default() };
+        // The search ran with a transfer-path correction; the view says so.
+        let path_correction = Some(twinscope::dsp::path_correction::PathCorrection { centre_hz: vec![500.0, 3000.0], gain_db: vec![-12.5, 3.0], level_db: -4.0 });
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, verdict: "nothing significant is missing".into(), path_correction, ..Default::default() };
         model.result = Some(LoopResult { measured: name, options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0 });
     }
     h.run_steps(3);
+    assert!(h.query_by_label_contains("transfer-path correction on (2 bands): -12.5 to +3.0 dB").is_some(), "the correction is shown");
     assert!(h.query_by_label("Try slip in place of unbalance").is_none(), "slip explained 10 %, under the significance threshold");
     let button = h.get_by_label("Try misalignment in place of unbalance");
     assert!(!button.accesskit_node().is_disabled());

@@ -261,6 +261,11 @@ impl ModelLoopView {
                 }
             });
         }
+        if let Some(pc) = &d.path_correction {
+            let (lo, hi) = pc.gain_db.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), g| (a.min(*g), b.max(*g)));
+            ui.label(format!("transfer-path correction on ({} bands): {lo:+.1} to {hi:+.1} dB applied to the model before comparing", pc.gain_db.len()))
+                .on_hover_text(pc.centre_hz.iter().zip(&pc.gain_db).map(|(f, g)| format!("{f:.0} Hz: {g:+.1} dB")).collect::<Vec<_>>().join("\n"));
+        }
         if !cal.at_bound.is_empty() {
             let names: Vec<&str> = cal.at_bound.iter().map(|b| b.0.name()).collect();
             let hint = if d.unbent { "the trials also started from the uncalibrated values" } else { "unbend is off in Search settings: the trials started only from this calibration" };
