@@ -16,7 +16,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 5)]
     repeat: usize,
     /// Skip the slow rows: the averaged cyclic periodogram (the SCF reference) and the
-    /// missing-effect search (about 2 min).
+    /// missing-effect search (about 4 min).
     #[arg(long)]
     skip_slow: bool,
     /// Do not run the scipy reference even if python3 has scipy.
@@ -246,6 +246,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let name = format!("missing-effect search, {:.0}-s CWRU record, {n} candidate effects (calibrate + trials)", meas.duration_s());
             rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
         }
+        // The same full search with the transfer-path correction (16 bands) fitted to every
+        // evaluation: one more Welch PSD and one FFT filter per evaluation.
+        let mut opts = LoopOptions { candidates: all.clone(), ..Default::default() };
+        opts.compare.envelope_band_hz = [1800.0, 3000.0];
+        opts.compare.path_correction_bands = 16;
+        let ms = median_ms(1, || Ok(diagnose(&m, &meas, &opts, &|_, _| true).map(|_| ())?))?;
+        let name = format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, transfer-path correction (16 bands)", meas.duration_s(), all.len());
+        rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
     }
 
     rows.extend(display_rows(r));

@@ -185,6 +185,16 @@ fn compare_with_a_preset_adds_the_scf_slice_at_its_fault_frequency() {
     assert!(text.contains("α = 162.1") || text.contains("α = 162.2"), "no α = BPFI slice in the JSON");
     let r = run(&["compare", rec.to_str().unwrap(), "--preset", "cwru_6205_inner", "--fault-hz=-3"]);
     assert_clean_failure(&r, &["--fault-hz"]);
+    // With the transfer-path correction the PSD error falls and the curve is printed and saved.
+    let r = run(&["compare", rec.to_str().unwrap(), "--preset", "cwru_6205_inner", "--band-hz", "1800,3000", "--path-correction", "16", "--json", json.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("transfer-path correction applied to the simulation"), "{}", r.stdout);
+    let corrected: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(corrected["comparison"]["path_correction"]["gain_db"].as_array().map(|a| a.len()), Some(16), "{}", corrected["comparison"]["path_correction"]);
+    let psd_nrmse = |v: &serde_json::Value| v["comparison"]["domains"].as_array().unwrap().iter().find(|d| d["domain"] == "psd_db").unwrap()["metrics"]["nrmse_percent"].as_f64().unwrap();
+    assert!(psd_nrmse(&corrected) < psd_nrmse(&v), "PSD NRMSE {:.2} % corrected, {:.2} % plain", psd_nrmse(&corrected), psd_nrmse(&v));
+    let r = run(&["compare", rec.to_str().unwrap(), "--preset", "cwru_6205_inner", "--path-correction", "99"]);
+    assert_clean_failure(&r, &["--path-correction"]);
 }
 
 #[test]
@@ -228,10 +238,11 @@ dir = "out"
     // The round records the load it applied (with the clearance that sets the zone's extent).
     assert_eq!(history[0]["applied_values"][0][0], "radial_load_n", "{}", history[0]);
     assert!(history[0]["applied_values"][0][1].as_f64().is_some_and(|v| v > 0.0), "{}", history[0]);
+    assert!(history[0]["objective_scatter"].as_f64().is_some_and(|s| s > 0.0), "the round keeps its seed scatter: {}", history[0]);
     let nrmse: Vec<f64> = history.iter().map(|r| r["envelope_nrmse"].as_f64().unwrap()).collect();
     assert!(nrmse.len() == 2 && nrmse[1] < nrmse[0], "envelope NRMSE per round {nrmse:?}");
     let csv = std::fs::read_to_string(l["history_csv"].as_str().unwrap()).unwrap();
-    assert!(csv.starts_with("round,effects_on,envelope_nrmse_percent,objective,floor_objective,applied,applied_values,removed,pinned,verdict"), "{csv}");
+    assert!(csv.starts_with("round,effects_on,envelope_nrmse_percent,objective,floor_objective,objective_scatter,applied,applied_values,removed,pinned,verdict"), "{csv}");
     assert_eq!(csv.lines().count(), 1 + history.len());
     assert!(csv.lines().nth(1).is_some_and(|l| l.contains("load_zone,\"radial_load_n = ")), "{csv}");
     let final_machine = std::fs::read_to_string(l["final_machine"].as_str().unwrap()).unwrap();
@@ -239,7 +250,7 @@ dir = "out"
     assert!(r.stderr.contains("model loop round 1"), "{}", r.stderr);
 
     // Bad loop settings fail before any work, naming the key.
-    for (bad, needle) in [("[model_loop]\npreset = \"cwru_6205_inner\"", "[model_loop]\npreset = \"no_such_rig\""), ("candidates = [\"load_zone\", \"slip\"]", "candidates = [\"warp_drive\"]"), ("rounds = 2", "rounds = 0")] {
+    for (bad, needle) in [("[model_loop]\npreset = \"cwru_6205_inner\"", "[model_loop]\npreset = \"no_such_rig\""), ("candidates = [\"load_zone\", \"slip\"]", "candidates = [\"warp_drive\"]"), ("rounds = 2", "rounds = 0"), ("rounds = 2", "rounds = 2\npath_correction_bands = 99")] {
         let text = std::fs::read_to_string(&job).unwrap().replacen(bad, needle, 1);
         let j2 = d.path().join("bad.toml");
         std::fs::write(&j2, text).unwrap();

@@ -371,7 +371,7 @@ fn session_round_trips() {
     h.state_mut().execute(Command::SetMetadata { index: 0, fs_hz: 12000.0, shaft_speed_hz: Some(29.5), bearing: Some("SKF 6205-2RS JEM".into()) });
     h.state_mut().execute(Command::ChainPreset("welch".into()));
     h.state_mut().execute(Command::LoadMachinePreset("cwru_6205_outer".into()));
-    h.state_mut().session.model.history.push(twinscope::compare::Round { round: 1, effects_on: vec![], domains: vec![], envelope_nrmse: 42.5, objective: 61.25, floor_objective: 3.5, verdict: "v".into(), ranking: vec![], applied: None, removed: None, applied_values: vec![], pinned: vec![] });
+    h.state_mut().session.model.history.push(twinscope::compare::Round { round: 1, effects_on: vec![], domains: vec![], envelope_nrmse: 42.5, objective: 61.25, floor_objective: 3.5, verdict: "v".into(), ..Default::default() });
     h.run_steps(2);
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("s.twinscope.json");
@@ -443,7 +443,7 @@ fn model_loop_search_shows_progress_and_cancels() {
 fn model_loop_history_shows_the_floor() {
     let mut h = harness(StartOptions { tab: Some("model".into()), ..Default::default() });
     h.run_steps(2);
-    let round = |n: usize, objective: f64, floor_objective: f64| twinscope::compare::Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 9.5, objective, floor_objective, verdict: "v".into(), ranking: vec![], applied: None, removed: None, applied_values: vec![], pinned: vec![] };
+    let round = |n: usize, objective: f64, floor_objective: f64| twinscope::compare::Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 9.5, objective, floor_objective, verdict: "v".into(), ..Default::default() };
     h.state_mut().session.model.history.push(round(1, 61.25, 7.25));
     h.state_mut().session.model.history.push(round(2, 12.75, 0.0));
     h.run_steps(3);
@@ -467,7 +467,7 @@ fn model_loop_offers_a_replacement_when_stuck() {
     // search on the model with it found nothing significant at 4 x its floor.
     let mut m = h.state().session.model.machine.clone();
     m.effects.enable(Unbalance);
-    let round = |n: usize, ranking: Vec<(EffectKind, f64, f64)>, applied: Option<EffectKind>| Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 5.0, objective: 8.0, floor_objective: 2.0, verdict: "v".into(), ranking, applied, removed: None, applied_values: vec![], pinned: vec![] };
+    let round = |n: usize, ranking: Vec<(EffectKind, f64, f64)>, applied: Option<EffectKind>| Round { round: n, envelope_nrmse: 5.0, objective: 8.0, floor_objective: 2.0, verdict: "v".into(), ranking, applied, ..Default::default() };
     let name = h.state().session.signals[0].signal.name.clone();
     {
         let model = &mut h.state_mut().session.model;

@@ -595,7 +595,7 @@ fn set_path_modulation_to_shaft_rate(m: &mut Machine) {
 }
 
 /// One round of the loop.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Round {
     /// Round number (1-based).
     pub round: usize,
@@ -612,6 +612,10 @@ pub struct Round {
     /// trial's fit rather than a diagnosis).
     #[serde(default)]
     pub floor_objective: f64,
+    /// The seed scatter σ of that objective (see [`objective_scatter`]), which sizes the tie band
+    /// and the improvement test of the round's decision. 0 when not computed.
+    #[serde(default)]
+    pub objective_scatter: f64,
     /// The verdict.
     pub verdict: String,
     /// The round's ranking, best first: each trial's effect, its objective after the trial and
@@ -637,6 +641,26 @@ pub struct Round {
 }
 
 impl Round {
+    /// The round of a diagnosis of the model with `effects_on`: its calibrated metrics, floor,
+    /// scatter, verdict, ranking and pinned parameters; nothing applied yet. `envelope_nrmse` is
+    /// the caller's reading of the calibrated envelope NRMSE (what to show when it is missing
+    /// differs between the loop and the app).
+    pub fn of_diagnosis(round: usize, effects_on: Vec<EffectKind>, d: &Diagnosis, envelope_nrmse: f64) -> Round {
+        Round {
+            round,
+            effects_on,
+            domains: d.domains.clone(),
+            envelope_nrmse,
+            objective: d.calibration.objective_after,
+            floor_objective: d.floor_objective,
+            objective_scatter: d.objective_scatter,
+            verdict: d.verdict.clone(),
+            ranking: ranking_of(d),
+            pinned: d.calibration.pinned(),
+            ..Default::default()
+        }
+    }
+
     /// What the round changed, in words: the effect applied, `"b in place of a"` for a
     /// replacement, or `none` when nothing was applied.
     pub fn change(&self, none: &str) -> String {
@@ -802,7 +826,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             None => diagnose_with(&current, &reference, &opts, progress)?,
         };
         let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::INFINITY);
-        let mut round = Round { round: r, effects_on: current.effects.enabled(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: ranking_of(&d), applied: d.best, removed: None, applied_values: Vec::new(), pinned: d.calibration.pinned() };
+        let mut round = Round { applied: d.best, ..Round::of_diagnosis(r, current.effects.enabled(), &d, env) };
         if let Some(k) = d.best {
             let mut next = cal.clone();
             match d.trials.iter().find(|t| t.effect == k) {
@@ -990,7 +1014,7 @@ mod tests {
 
     fn round(n: usize, ranking: Vec<(EffectKind, f64)>, applied: Option<EffectKind>, removed: Option<EffectKind>) -> Round {
         let ranking = ranking.into_iter().map(|(k, e)| (k, 1.0 - e, e)).collect();
-        Round { round: n, effects_on: vec![], domains: vec![], envelope_nrmse: 1.0, objective: 1.0, floor_objective: 0.5, verdict: String::new(), ranking, applied, removed, applied_values: vec![], pinned: vec![] }
+        Round { round: n, envelope_nrmse: 1.0, objective: 1.0, floor_objective: 0.5, ranking, applied, removed, ..Default::default() }
     }
 
     #[test]

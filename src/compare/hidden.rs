@@ -248,17 +248,13 @@ mod tests {
     fn round(n: usize, applied: Option<(EffectKind, Param, f64)>, removed: Option<EffectKind>) -> Round {
         Round {
             round: n,
-            effects_on: vec![],
-            domains: vec![],
             envelope_nrmse: 1.0,
             objective: 1.0,
             floor_objective: 0.5,
-            verdict: String::new(),
-            ranking: vec![],
             applied: applied.map(|a| a.0),
             removed,
             applied_values: applied.map(|(_, p, v)| vec![(p, v)]).unwrap_or_default(),
-            pinned: vec![],
+            ..Default::default()
         }
     }
 

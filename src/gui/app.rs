@@ -410,13 +410,8 @@ impl Workbench {
             domains: t.domains.iter().map(|(d, _, after)| (d.clone(), f64::NAN, *after)).collect(),
             envelope_nrmse: t.envelope_nrmse_after,
             objective: t.objective_after,
-            floor_objective: 0.0,
-            ranking: Vec::new(),
             verdict: format!("after adding {} (the trial's fit; Find missing effect again recalibrates)", effect.name()),
-            applied: None,
-            removed: None,
-            applied_values: Vec::new(),
-            pinned: Vec::new(),
+            ..Default::default()
         });
         model.replace_machine(m);
         self.session.tell(Level::Info, format!("{} added: envelope NRMSE {:.1} -> {:.1} % in the trial; simulating the new model", effect.name(), t.envelope_nrmse_before, t.envelope_nrmse_after));
@@ -561,7 +556,7 @@ impl Workbench {
                 let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
                 let effects_on = r.started_from.effects.enabled();
                 let model = &mut self.session.model;
-                let round = Round { round: model.history.len() + 1, effects_on: effects_on.clone(), domains: d.domains.clone(), envelope_nrmse: env, objective: d.calibration.objective_after, floor_objective: d.floor_objective, verdict: d.verdict.clone(), ranking: crate::compare::diagnose::ranking_of(d), applied: None, removed: None, applied_values: Vec::new(), pinned: d.calibration.pinned() };
+                let round = Round::of_diagnosis(model.history.len() + 1, effects_on.clone(), d, env);
                 match model.history.last_mut() {
                     // The same model again (after an Add, or a re-run): this search calibrates it.
                     Some(last) if last.applied.is_none() && last.effects_on == effects_on => *last = Round { round: last.round, ..round },
