@@ -216,11 +216,19 @@ struct SearchArgs {
     /// response) then compete only on what N bands cannot absorb.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=64))]
     path_correction: u16,
+    /// The significance test: `floor_margin` (objective at least 1.5 × its seed floor; the
+    /// default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
+    /// must account for the share: switching it off again in the trial's fit must cost it;
+    /// experimental).
+    #[arg(long, value_name = "RULE", default_value = "floor_margin", value_parser = ["floor_margin", "scatter"])]
+    decision_rule: String,
 }
 
 impl SearchArgs {
     fn options(&self) -> LoopOptions {
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, ..Default::default() };
+        use twinscope::compare::DecisionRule;
+        let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

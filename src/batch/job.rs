@@ -197,6 +197,10 @@ pub struct LoopSpec {
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
     #[serde(default)]
     pub path_correction_bands: usize,
+    /// The significance test (`LoopOptions::decision_rule`): `"floor_margin"` (default) or
+    /// `"scatter"` (experimental).
+    #[serde(default)]
+    pub decision_rule: crate::compare::DecisionRule,
 }
 
 impl LoopSpec {
@@ -232,7 +236,7 @@ impl LoopSpec {
         if self.path_correction_bands > 64 {
             return Err(format!("`model_loop.path_correction_bands` = {}: must be 0 (off) to 64", self.path_correction_bands));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, decision_rule: self.decision_rule, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
             chain::Op::Bandpass(b) => Some(b.pass_band_hz),
@@ -489,12 +493,15 @@ mod tests {
     }
 
     #[test]
-    fn a_model_loop_corrects_the_transfer_path_only_when_asked() {
+    fn a_model_loop_takes_the_path_correction_and_the_decision_rule_only_when_asked() {
         let chain = Chain { name: "none".into(), description: String::new(), stages: Vec::new() };
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
         assert_eq!(spec.options(&chain).unwrap().compare.path_correction_bands, 0);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npath_correction_bands = 24").unwrap();
         assert_eq!(spec.options(&chain).unwrap().compare.path_correction_bands, 24);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\ndecision_rule = \"scatter\"").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().decision_rule, crate::compare::DecisionRule::Scatter);
+        assert!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"\ndecision_rule = \"vibes\"").unwrap_err().to_string().contains("vibes"));
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npath_correction_bands = 65").unwrap();
         let e = spec.options(&chain).unwrap_err();
         assert!(e.contains("path_correction_bands") && e.contains("65"), "{e}");
