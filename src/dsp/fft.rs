@@ -55,6 +55,19 @@ pub fn rfft(x: &[f64]) -> Vec<Complex64> {
     out
 }
 
+/// Zero-phase filtering of a real record by a real gain per frequency: every bin `k` of the
+/// record's one real FFT is scaled by `gain(k · fs / n)` and transformed back (the record is
+/// treated as periodic). The caller checks its inputs.
+pub fn zero_phase_filter(x: &[f64], fs_hz: f64, gain: impl Fn(f64) -> f64) -> Vec<f64> {
+    let n = x.len();
+    let mut spec = rfft(x);
+    let df = fs_hz / n as f64;
+    for (k, c) in spec.iter_mut().enumerate() {
+        *c *= gain(k as f64 * df);
+    }
+    irfft(&spec, n)
+}
+
 /// Inverse of [`rfft`] for a length-`n` real sequence, normalised by `1/n`.
 ///
 /// The imaginary parts of the DC and (for even `n`) Nyquist bins are ignored.

@@ -35,12 +35,7 @@ pub fn fourier_lowpass(x: &[f64], fs_hz: f64, passband_hz: f64, stopband_hz: f64
     if n < 2 {
         return Err(DspError::TooShort { what: "low-pass filtering", needed: 2, got: n });
     }
-    let mut spec = fft::rfft(x);
-    let df = fs_hz / n as f64;
-    for (k, c) in spec.iter_mut().enumerate() {
-        *c *= lowpass_gain(k as f64 * df, passband_hz, stopband_hz, stopband_db);
-    }
-    Ok(fft::irfft(&spec, n))
+    Ok(fft::zero_phase_filter(x, fs_hz, |f| lowpass_gain(f, passband_hz, stopband_hz, stopband_db)))
 }
 
 #[cfg(test)]

@@ -114,12 +114,7 @@ impl PathCorrection {
         if n < 2 {
             return Err(DspError::TooShort { what: "path correction", needed: 2, got: n });
         }
-        let mut spec = fft::rfft(x);
-        let df = fs_hz / n as f64;
-        for (k, c) in spec.iter_mut().enumerate() {
-            *c *= 10f64.powf(self.gain_db_at(k as f64 * df * frequency_scale) / 20.0);
-        }
-        Ok(fft::irfft(&spec, n))
+        Ok(fft::zero_phase_filter(x, fs_hz, |f| 10f64.powf(self.gain_db_at(f * frequency_scale) / 20.0)))
     }
 }
 
