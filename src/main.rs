@@ -219,7 +219,7 @@ struct SearchArgs {
     /// The significance test: `floor_margin` (objective at least 1.5 × its seed floor; the
     /// default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
     /// must account for the share: switching it off again in the trial's fit must cost it;
-    /// experimental).
+    /// experimental, not adopted: it made a false claim on a fresh pair the default does not).
     #[arg(long, value_name = "RULE", default_value = "floor_margin", value_parser = ["floor_margin", "scatter"])]
     decision_rule: String,
 }

@@ -344,7 +344,10 @@ pub enum DecisionRule {
     /// must cost that much. Near the floor a trial can "explain" most of a small excess by its
     /// re-fit of the noise level and the calibration alone (a hidden gear mesh at 1.19 × its
     /// floor: an unbalance trial explained 98 %, switching the unbalance off cost 7 %); the
-    /// ablation tells that apart. Experimental: not yet the default.
+    /// ablation tells that apart. Tried on fresh pair seeds and not adopted: near the floor the
+    /// excess can be a systematic misfit many σ large, which a spectral-shape effect absorbs
+    /// for real (a sensor roll-off at 1.16 × the floor explained 61 %, its ablation 77 %: a
+    /// false claim the floor margin does not make; README "Two hidden effects").
     Scatter,
 }
 
