@@ -133,6 +133,15 @@ fn the_path_correction_takes_the_transfer_path_and_leaves_the_modulation() {
 }
 
 #[test]
+fn an_absurd_number_of_correction_bands_is_refused() {
+    let a = bearing_signal(12000.0, 2.0, 0.5, 1);
+    match compare(&a, &a, &CompareOptions { path_correction_bands: 100_000, ..opts() }) {
+        Err(CompareError::Parameter { name: "path_correction_bands", reason }) => assert!(reason.contains("100000"), "{reason}"),
+        other => panic!("{:?}", other.map(|c| c.domains.len())),
+    }
+}
+
+#[test]
 fn a_signal_corrected_against_itself_is_unchanged() {
     let a = bearing_signal(12000.0, 2.0, 0.5, 1);
     let c = compare(&a, &a, &CompareOptions { path_correction_bands: 24, ..opts() }).unwrap();

@@ -351,16 +351,6 @@ pub enum DecisionRule {
     Scatter,
 }
 
-impl DecisionRule {
-    /// The name in options and reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            DecisionRule::FloorMargin => "floor_margin",
-            DecisionRule::Scatter => "scatter",
-        }
-    }
-}
-
 impl Default for LoopOptions {
     fn default() -> Self {
         Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, decision_rule: DecisionRule::FloorMargin }

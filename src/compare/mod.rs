@@ -267,6 +267,9 @@ impl Reference {
                 return Err(CompareError::Parameter { name: "fault_frequency_hz", reason: format!("{f} Hz: must be a frequency between 0 and the Nyquist frequency ({} Hz)", measured.fs_hz / 2.0) });
             }
         }
+        if opts.path_correction_bands > 256 {
+            return Err(CompareError::Parameter { name: "path_correction_bands", reason: format!("{}: at most 256 bands (0 = off)", opts.path_correction_bands) });
+        }
         let taps = envelope_filter(measured.fs_hz, opts)?;
         Ok(Self { measured: measured.clone(), opts: opts.clone(), taps, cache: std::sync::Mutex::new(Vec::new()) })
     }
