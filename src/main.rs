@@ -93,7 +93,7 @@ enum Command {
         fault_hz: Option<f64>,
         /// Correct the simulated signal's transfer path with a smooth gain curve on N
         /// log-spaced PSD bands before comparing (0 = off).
-        #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=64))]
+        #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_PATH_CORRECTION_BANDS as i64))]
         path_correction: u16,
         /// Write the full comparison as JSON.
         #[arg(long)]
@@ -214,7 +214,7 @@ struct SearchArgs {
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
     /// path the model does not describe. Spectral-shape effects (casing modes, sensor
     /// response) then compete only on what N bands cannot absorb.
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=64))]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_PATH_CORRECTION_BANDS as i64))]
     path_correction: u16,
     /// The significance test: `floor_margin` (objective at least 1.5 × its seed floor; the
     /// default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
@@ -485,7 +485,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
     println!("NRMSE normaliser: {}; simulated/measured RMS {:+.1} dB", opts.normaliser.name(), cmp.alignment.rms_ratio_db);
     if let Some(pc) = &cmp.path_correction {
         println!("transfer-path correction applied to the simulation (dB at band centres):");
-        println!("  {}", pc.centre_hz.iter().zip(&pc.gain_db).map(|(f, g)| format!("{f:.0} Hz {g:+.1}")).collect::<Vec<_>>().join(", "));
+        println!("  {pc}");
     }
     let families = ff.map(|f| f.families()).unwrap_or_default();
     let map = compare::residual_map(&cmp, &families, meas.meta.shaft_speed_hz);
@@ -546,7 +546,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         }
     }
     if let Some(pc) = &last.path_correction {
-        println!("  transfer-path correction of the calibrated model (dB at band centres): {}", pc.centre_hz.iter().zip(&pc.gain_db).map(|(f, g)| format!("{f:.0} Hz {g:+.1}")).collect::<Vec<_>>().join(", "));
+        println!("  transfer-path correction of the calibrated model (dB at band centres): {pc}");
     }
     if last.unbent {
         println!("  the trials also started from the uncalibrated values, not only from this bent calibration (--no-unbend turns this off)");

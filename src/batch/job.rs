@@ -233,8 +233,8 @@ impl LoopSpec {
         if !(self.fit_duration_s.is_finite() && self.fit_duration_s >= 0.2) {
             return Err(format!("`model_loop.fit_duration_s` = {}: must be at least 0.2 s", self.fit_duration_s));
         }
-        if self.path_correction_bands > 64 {
-            return Err(format!("`model_loop.path_correction_bands` = {}: must be 0 (off) to 64", self.path_correction_bands));
+        if self.path_correction_bands > crate::compare::MAX_PATH_CORRECTION_BANDS {
+            return Err(format!("`model_loop.path_correction_bands` = {}: must be 0 (off) to {}", self.path_correction_bands, crate::compare::MAX_PATH_CORRECTION_BANDS));
         }
         let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, decision_rule: self.decision_rule, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;

@@ -39,6 +39,10 @@ pub enum CompareError {
     Parameter { name: &'static str, reason: String },
 }
 
+/// The most bands a transfer-path correction may have ([`CompareOptions::path_correction_bands`]);
+/// the CLI, batch jobs and the app share the limit.
+pub const MAX_PATH_CORRECTION_BANDS: usize = 64;
+
 /// Comparison settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -267,8 +271,8 @@ impl Reference {
                 return Err(CompareError::Parameter { name: "fault_frequency_hz", reason: format!("{f} Hz: must be a frequency between 0 and the Nyquist frequency ({} Hz)", measured.fs_hz / 2.0) });
             }
         }
-        if opts.path_correction_bands > 256 {
-            return Err(CompareError::Parameter { name: "path_correction_bands", reason: format!("{}: at most 256 bands (0 = off)", opts.path_correction_bands) });
+        if opts.path_correction_bands > MAX_PATH_CORRECTION_BANDS {
+            return Err(CompareError::Parameter { name: "path_correction_bands", reason: format!("{}: at most {MAX_PATH_CORRECTION_BANDS} bands (0 = off)", opts.path_correction_bands) });
         }
         let taps = envelope_filter(measured.fs_hz, opts)?;
         Ok(Self { measured: measured.clone(), opts: opts.clone(), taps, cache: std::sync::Mutex::new(Vec::new()) })

@@ -83,6 +83,16 @@ pub fn fit_path_correction(frequency_hz: &[f64], measured_db: &[f64], simulated_
     Ok(PathCorrection { centre_hz, gain_db, level_db: total / count as f64 })
 }
 
+impl std::fmt::Display for PathCorrection {
+    /// `"500 Hz -12.5, 3000 Hz +3.0"`: each band centre with its gain in dB.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (i, (c, g)) in self.centre_hz.iter().zip(&self.gain_db).enumerate() {
+            write!(f, "{}{c:.0} Hz {g:+.1}", if i == 0 { "" } else { ", " })?;
+        }
+        Ok(())
+    }
+}
+
 impl PathCorrection {
     /// Gain in dB at `f_hz`: linear in dB against log-frequency between centres, flat beyond.
     pub fn gain_db_at(&self, f_hz: f64) -> f64 {
@@ -205,6 +215,7 @@ mod tests {
         // frequencies are stretched by 2 is read at 4 kHz.
         let c = PathCorrection { centre_hz: vec![1000.0, 4000.0], gain_db: vec![0.0, -20.0], level_db: -10.0 };
         assert!((c.gain_db_at(2000.0) + 10.0).abs() < 1e-12, "midway on the log axis");
+        assert_eq!(c.to_string(), "1000 Hz +0.0, 4000 Hz -20.0");
         let (fs, n) = (12000.0, 12000);
         let x: Vec<f64> = (0..n).map(|i| (std::f64::consts::TAU * 2000.0 * i as f64 / fs).sin()).collect();
         let y = c.apply(&x, fs, 2.0).unwrap();

@@ -114,7 +114,7 @@ impl Settings {
     /// The loop options from these settings, comparing with `compare` (the chain's band).
     pub fn loop_options(&self, compare: CompareOptions) -> LoopOptions {
         LoopOptions {
-            compare: CompareOptions { path_correction_bands: self.loop_path_correction_bands.min(64), ..compare },
+            compare: CompareOptions { path_correction_bands: self.loop_path_correction_bands.min(crate::compare::MAX_PATH_CORRECTION_BANDS), ..compare },
             fit_duration_s: self.loop_fit_duration_s,
             evaluations_per_parameter: self.loop_evaluations_per_parameter,
             sweeps: self.loop_sweeps,

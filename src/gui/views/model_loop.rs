@@ -141,7 +141,7 @@ impl ModelLoopView {
                 ui.add(egui::DragValue::new(&mut s.loop_sweeps).range(0..=5));
                 ui.end_row();
                 ui.label("transfer-path correction").on_hover_text("fit a smooth gain curve on this many log-spaced PSD bands to every evaluation before comparing (0 = off): for a real record whose sensor path the model does not describe; spectral-shape effects then compete only on what the bands cannot absorb");
-                ui.add(egui::DragValue::new(&mut s.loop_path_correction_bands).range(0..=64).suffix(" bands"));
+                ui.add(egui::DragValue::new(&mut s.loop_path_correction_bands).range(0..=crate::compare::MAX_PATH_CORRECTION_BANDS).suffix(" bands"));
                 ui.end_row();
             });
             ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, also start the trials from the uncalibrated values")
