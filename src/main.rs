@@ -164,6 +164,14 @@ enum Command {
         /// Seed of the first case (case i uses seed + i): a new seed draws new cases.
         #[arg(long, default_value_t = 100)]
         seed: u64,
+        /// Detection-limit sweep: hide the one `--effect` at each of these values of its main
+        /// parameter (repeatable; for `noise`, its SNR in dB). Every case of the sweep, and its
+        /// controls, uses `--seed`: the same perturbed baseline, so only the value changes.
+        #[arg(long = "value", value_name = "X", requires = "effects", conflicts_with = "hide")]
+        values: Vec<f64>,
+        /// Fix the measurement SNR (dB) instead of drawing it in 0–20 dB.
+        #[arg(long, value_name = "DB")]
+        snr_db: Option<f64>,
         /// Write all case results as JSON (rewritten after every case): an array of single-effect
         /// cases, or, with `--hide`, `{"single": [...], "multi": [...]}`.
         #[arg(long)]
@@ -268,7 +276,10 @@ fn run(cli: Cli) -> Result<()> {
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, path_correction as usize, json.as_deref()),
         Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, LoopOptions { fit_duration_s, ..search.options() }, json.as_deref(), save_machine.as_deref(), cli.quiet),
-        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, json, search }) => confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, json.as_deref(), search.options()),
+        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, search }) => {
+            let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
+            confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, json.as_deref(), search.options())
+        }
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
         None => open_workbench(cli.view, cli.open, !cli.no_demo, cli.find_missing_effect, cli.export_png),
     }
@@ -601,7 +612,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
 }
 
 #[allow(clippy::too_many_arguments)]
-fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
+#[allow(clippy::too_many_arguments)]
+fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;
     use twinscope::model::{self, EffectKind, Effects};
@@ -630,8 +642,30 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     if rounds == Some(0) {
         anyhow::bail!("--rounds must be at least 1");
     }
-    let mut cases: Vec<Option<EffectKind>> = kinds.iter().map(|k| Some(*k)).collect();
-    cases.extend(std::iter::repeat_n(None, controls));
+    if let Some(snr) = setting.snr_db {
+        if !(snr.is_finite() && (-20.0..=60.0).contains(&snr)) {
+            anyhow::bail!("--snr-db {snr}: give a measurement SNR between -20 and 60 dB");
+        }
+        if kinds.contains(&EffectKind::Noise) || groups.iter().flatten().any(|k| *k == EffectKind::Noise) {
+            anyhow::bail!("--snr-db: not with `noise` hidden, whose own value is the SNR (give it with --value)");
+        }
+    }
+    // (hidden effect, fixed value, seed) of each single case: a sweep keeps one seed.
+    let mut cases: Vec<(Option<EffectKind>, Option<f64>, u64)> = Vec::new();
+    if values.is_empty() {
+        cases.extend(kinds.iter().enumerate().map(|(i, k)| (Some(*k), None, seed + i as u64)));
+        cases.extend((0..controls).map(|i| (None, None, seed + (kinds.len() + i) as u64)));
+    } else {
+        let [k] = kinds[..] else { anyhow::bail!("--value sweeps one effect: give exactly one --effect (got {})", kinds.len()) };
+        let Some(p) = twinscope::compare::Param::main_of_effect(k) else { anyhow::bail!("--value: `{}` is a switch without a parameter", k.name()) };
+        for v in values {
+            // Refused here, before any case runs, with the model's own message.
+            let (truth, ..) = hidden::make_case_set(&base, &[k], seed, &hidden::CaseSetting { value: Some(*v), ..setting });
+            truth.validate().with_context(|| format!("--value {v} for {} ({})", k.name(), p.name()))?;
+            cases.push((Some(k), Some(*v), seed));
+        }
+        cases.extend(std::iter::repeat_n((None, None, seed), controls));
+    }
     let mut results = Vec::new();
     let mut multi = Vec::new();
     let write_json = |results: &Vec<hidden::CaseResult>, multi: &Vec<hidden::MultiCaseResult>| -> Result<()> {
@@ -643,19 +677,23 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         Ok(())
     };
     if !cases.is_empty() {
-        println!("| hidden | true parameter | SNR dB | ranked first | rank of hidden | envelope NRMSE before → after (%) | s |");
-        println!("|---|---|---:|---|---:|---|---:|");
+        println!("| hidden | true parameter | SNR dB | objective / floor | chosen | rank of hidden | hidden explains (% above floor) | envelope NRMSE before → after (%) | s |");
+        println!("|---|---|---:|---:|---|---:|---:|---|---:|");
     }
-    for (i, h) in cases.iter().enumerate() {
-        let r = hidden::run_case(&base, *h, seed + i as u64, duration_s, &opts)?;
+    for (h, value, case_seed) in &cases {
+        let r = hidden::run_case_set(&base, *h, *case_seed, duration_s, &hidden::CaseSetting { value: *value, ..setting }, &opts)?;
         let tp = r.true_parameter.map(|pv| effect_values_text(&[pv])).unwrap_or_else(|| "-".into());
+        let calibrated = r.trials.first().map_or(f64::NAN, |t| t.objective_before);
+        let explains = h.and_then(|k| r.trials.iter().find(|t| t.effect == k)).map_or("-".to_string(), |t| format!("{:.0}", t.explained * 100.0));
         println!(
-            "| {} | {} | {:.1} | {} | {} | {:.1} → {:.1} | {:.0} |",
+            "| {} | {} | {:.1} | {:.2} | {} | {} | {} | {:.1} → {:.1} | {:.0} |",
             h.map(|k| k.name()).unwrap_or("(control)"),
             tp,
             r.snr_db,
+            calibrated / r.floor_objective,
             r.chosen.map(|k| k.name()).unwrap_or("nothing significant"),
             r.rank_of_hidden.map(|x| x.to_string()).unwrap_or_else(|| "-".into()),
+            explains,
             r.envelope_nrmse_before,
             r.envelope_nrmse_after,
             r.seconds
@@ -666,7 +704,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     if !cases.is_empty() {
         let hits = results.iter().filter(|r| r.hidden.is_some() && r.chosen == r.hidden).count();
         let ok_controls = results.iter().filter(|r| r.hidden.is_none() && r.chosen.is_none()).count();
-        println!("\nhidden effect ranked first and chosen: {hits}/{}; controls answered nothing significant: {ok_controls}/{controls}", kinds.len());
+        println!("\nhidden effect ranked first and chosen: {hits}/{}; controls answered nothing significant: {ok_controls}/{controls}", cases.len() - controls);
     }
     if groups.is_empty() {
         return Ok(());
@@ -674,7 +712,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims | missed (rank, explains in the last round) | applied, as fitted at the end |");
     println!("|---|---|---:|---|---|---|---|---|");
     for (j, g) in groups.iter().enumerate() {
-        let r = hidden::run_multi_case(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 2), &opts)?;
+        let r = hidden::run_multi_case_set(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 2), &setting, &opts)?;
         let names = |ks: &[EffectKind]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ");
         let tp = effect_values_text(&r.true_parameters);
         let steps = r.history.iter().map(|h| format!("{:.1} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.change_with_values("nothing significant"))).collect::<Vec<_>>().join("; ");

@@ -119,6 +119,17 @@ fn confusion_refuses_bad_hidden_effect_groups_before_any_work() {
 }
 
 #[test]
+fn confusion_refuses_a_bad_detection_sweep_before_any_work() {
+    // A value the model refuses (with the model's own reason), a sweep over two effects or over
+    // a switch, an SNR out of range or given with noise hidden: each refused at once.
+    assert_clean_failure(&run(&["confusion", "--effect", "slip", "--value", "1", "--value", "30", "--controls", "0"]), &["--value 30", "slip", "[0, 20]"]);
+    assert_clean_failure(&run(&["confusion", "--effect", "slip", "--effect", "unbalance", "--value", "2"]), &["exactly one --effect", "got 2"]);
+    assert_clean_failure(&run(&["confusion", "--effect", "nonlinear_contact", "--value", "1"]), &["nonlinear_contact", "without a parameter"]);
+    assert_clean_failure(&run(&["confusion", "--effect", "slip", "--snr-db", "100"]), &["--snr-db 100", "between"]);
+    assert_clean_failure(&run(&["confusion", "--effect", "noise", "--value", "3", "--snr-db", "5"]), &["--snr-db", "noise", "--value"]);
+}
+
+#[test]
 fn sample_jobs_run_and_write_csv_and_json() {
     let samples = Path::new(env!("CARGO_MANIFEST_DIR")).join("sample_data");
     let mut jobs: Vec<PathBuf> = std::fs::read_dir(&samples).unwrap().filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "toml")).collect();

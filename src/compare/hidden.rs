@@ -96,12 +96,29 @@ pub fn make_case(base: &Machine, hidden: Option<EffectKind>, seed: u64) -> (Mach
     (truth, model_m, params.first().copied(), snr)
 }
 
+/// What a case fixes instead of drawing it, for a detection-limit sweep: the first hidden
+/// effect's main parameter and the measurement SNR. Everything else (seed, perturbed
+/// baseline) is drawn as usual, so cases with one seed differ only in what is fixed here.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CaseSetting {
+    /// The first hidden effect's main parameter (for `noise`: its SNR, dB).
+    pub value: Option<f64>,
+    /// Measurement SNR, dB (not with `noise` hidden: its value is the SNR).
+    pub snr_db: Option<f64>,
+}
+
 /// [`make_case`] with any number of hidden effects: each is switched off in the model and on,
 /// with a random parameter, in the measurement. Returns the true parameters in the order of
 /// `hidden` (effects without a parameter, such as `nonlinear_contact`, add none). With one
 /// effect it draws exactly what [`make_case`] draws, so the single-effect tables stay
 /// reproducible.
 pub fn make_case_hiding(base: &Machine, hidden: &[EffectKind], seed: u64) -> (Machine, Machine, Vec<(Param, f64)>, f64) {
+    make_case_set(base, hidden, seed, &CaseSetting::default())
+}
+
+/// [`make_case_hiding`] with what `setting` fixes put in place of the draws. Every number is
+/// still drawn, in the same order, so a fixed value changes nothing else in the case.
+pub fn make_case_set(base: &Machine, hidden: &[EffectKind], seed: u64, setting: &CaseSetting) -> (Machine, Machine, Vec<(Param, f64)>, f64) {
     let mut rng = synth::rng(seed ^ 0xC0FFEE);
     let mut model_m = base.clone();
     for k in hidden {
@@ -124,11 +141,19 @@ pub fn make_case_hiding(base: &Machine, hidden: &[EffectKind], seed: u64) -> (Ma
             p.set(&mut truth, v * (1.0 + uniform(&mut rng, -rel, rel)));
         }
     }
-    let true_parameters: Vec<(Param, f64)> = hidden.iter().filter_map(|k| hide_effect(&mut truth, *k, &mut rng)).collect();
+    let mut true_parameters: Vec<(Param, f64)> = hidden.iter().filter_map(|k| hide_effect(&mut truth, *k, &mut rng)).collect();
+    if let (Some(v), Some(first)) = (setting.value, hidden.first()) {
+        if let Some(tp) = true_parameters.iter_mut().find(|(p, _)| Param::main_of_effect(*first) == Some(*p)) {
+            tp.1 = v;
+            tp.0.set(&mut truth, v);
+        }
+    }
     let snr = if noise_hidden {
         true_parameters.iter().find(|(p, _)| *p == Param::NoiseSnrDb).map(|(_, v)| *v).unwrap_or(10.0)
     } else {
-        let s = uniform(&mut rng, 0.0, 20.0);
+        // Drawn even when fixed, so the rest of the stream does not move.
+        let drawn = uniform(&mut rng, 0.0, 20.0);
+        let s = setting.snr_db.unwrap_or(drawn);
         truth.effects.enable(EffectKind::Noise);
         Param::NoiseSnrDb.set(&mut truth, s);
         s
@@ -138,8 +163,14 @@ pub fn make_case_hiding(base: &Machine, hidden: &[EffectKind], seed: u64) -> (Ma
 
 /// Runs one case: simulate the measurement (`duration_s`), diagnose the model against it.
 pub fn run_case(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_s: f64, opts: &LoopOptions) -> Result<CaseResult, LoopError> {
+    run_case_set(base, hidden, seed, duration_s, &CaseSetting::default(), opts)
+}
+
+/// [`run_case`] with what `setting` fixes (see [`make_case_set`]).
+pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, duration_s: f64, setting: &CaseSetting, opts: &LoopOptions) -> Result<CaseResult, LoopError> {
     let t0 = std::time::Instant::now();
-    let (mut truth, model_m, true_parameter, snr_db) = make_case(base, hidden, seed);
+    let (mut truth, model_m, true_parameters, snr_db) = make_case_set(base, hidden.as_slice(), seed, setting);
+    let true_parameter = true_parameters.first().copied();
     truth.duration_s = duration_s;
     let measured = model::simulate(&truth)?;
     let (_, d) = diagnose(&model_m, &measured, opts, &|_, _| true)?;
@@ -200,8 +231,13 @@ pub struct MultiCaseResult {
 /// Runs a case with the effects `hidden` (see [`make_case_hiding`]) through [`run_loop`] for up
 /// to `rounds` rounds: each round calibrates, diagnoses and applies the effect it chooses.
 pub fn run_multi_case(base: &Machine, hidden: &[EffectKind], seed: u64, duration_s: f64, rounds: usize, opts: &LoopOptions) -> Result<MultiCaseResult, LoopError> {
+    run_multi_case_set(base, hidden, seed, duration_s, rounds, &CaseSetting::default(), opts)
+}
+
+/// [`run_multi_case`] with what `setting` fixes (see [`make_case_set`]).
+pub fn run_multi_case_set(base: &Machine, hidden: &[EffectKind], seed: u64, duration_s: f64, rounds: usize, setting: &CaseSetting, opts: &LoopOptions) -> Result<MultiCaseResult, LoopError> {
     let t0 = std::time::Instant::now();
-    let (mut truth, model_m, true_parameters, snr_db) = make_case_hiding(base, hidden, seed);
+    let (mut truth, model_m, true_parameters, snr_db) = make_case_set(base, hidden, seed, setting);
     truth.duration_s = duration_s;
     let measured = model::simulate(&truth)?;
     let (_, history, last) = run_loop(&model_m, &measured, rounds, opts, &|_, _| true)?;
@@ -256,6 +292,32 @@ mod tests {
             applied_values: applied.map(|(_, p, v)| vec![(p, v)]).unwrap_or_default(),
             ..Default::default()
         }
+    }
+
+    #[test]
+    fn a_fixed_value_and_snr_change_nothing_else_in_the_case() {
+        let base = crate::model::preset("mfs_inner").unwrap();
+        let (t_drawn, m_drawn, p_drawn, snr_drawn) = make_case_hiding(&base, &[EffectKind::Slip], 7);
+        let setting = CaseSetting { value: Some(2.5), snr_db: Some(12.0) };
+        let (t, m, p, snr) = make_case_set(&base, &[EffectKind::Slip], 7, &setting);
+        assert_eq!(p, vec![(Param::SlipPercent, 2.5)]);
+        assert_ne!(p_drawn[0].1, 2.5);
+        assert_eq!(Param::SlipPercent.get(&t), Some(2.5));
+        assert_eq!((snr, Param::NoiseSnrDb.get(&t)), (12.0, Some(12.0)));
+        assert_ne!(snr_drawn, 12.0);
+        // The same seed, the same perturbed baseline, the same model.
+        assert_eq!(t.seed, t_drawn.seed);
+        for q in [Param::ResonanceHz, Param::ResonanceDamping, Param::FaultDepthM] {
+            assert_eq!(q.get(&t), q.get(&t_drawn), "{q:?}");
+        }
+        assert_eq!(m, m_drawn);
+        // Putting the drawn values back gives the drawn case exactly.
+        let back = CaseSetting { value: Some(p_drawn[0].1), snr_db: Some(snr_drawn) };
+        assert_eq!(make_case_set(&base, &[EffectKind::Slip], 7, &back).0, t_drawn);
+        assert_eq!(make_case_set(&base, &[EffectKind::Slip], 7, &CaseSetting::default()).0, t_drawn);
+        // With noise hidden the value is the SNR.
+        let (_, _, p, snr) = make_case_set(&base, &[EffectKind::Noise], 7, &CaseSetting { value: Some(4.0), snr_db: None });
+        assert_eq!((p, snr), (vec![(Param::NoiseSnrDb, 4.0)], 4.0));
     }
 
     #[test]
