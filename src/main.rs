@@ -123,9 +123,6 @@ enum Command {
         /// Rounds of diagnose → apply best → re-compare.
         #[arg(long, default_value_t = 1)]
         rounds: usize,
-        /// Simulated duration per evaluation, s.
-        #[arg(long, default_value_t = 1.5)]
-        fit_duration_s: f64,
         /// Write the ranking, residual map and history as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -230,13 +227,25 @@ struct SearchArgs {
     /// experimental, not adopted: it made a false claim on a fresh pair the default does not).
     #[arg(long, value_name = "RULE", default_value = "floor_margin", value_parser = ["floor_margin", "scatter"])]
     decision_rule: String,
+    /// Model time simulated per evaluation, s (at most the measurement's length). Longer
+    /// evaluations lower the seed floor, and every evaluation costs proportionally more.
+    #[arg(long, value_name = "S", default_value_t = LoopOptions::default().fit_duration_s, value_parser = parse_fit_duration_s)]
+    fit_duration_s: f64,
+}
+
+fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.parse().map_err(|e| format!("{s}: {e}"))?;
+    if !(v.is_finite() && (0.2..=60.0).contains(&v)) {
+        return Err(format!("{s}: give 0.2 to 60 s"));
+    }
+    Ok(v)
 }
 
 impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, fit_duration_s: self.fit_duration_s, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }
@@ -275,7 +284,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, path_correction as usize, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, fit_duration_s, json, save_machine, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, LoopOptions { fit_duration_s, ..search.options() }, json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, json, save_machine, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
             confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, json.as_deref(), search.options())
