@@ -231,6 +231,11 @@ struct SearchArgs {
     /// evaluations lower the seed floor, and every evaluation costs proportionally more.
     #[arg(long, value_name = "S", default_value_t = LoopOptions::default().fit_duration_s, value_parser = parse_fit_duration_s)]
     fit_duration_s: f64,
+    /// Model realisations (seeds) per evaluation, their spectra averaged before comparing, so
+    /// random effects (slip, noise) are fitted to their expected spectra (experimental; each
+    /// evaluation costs K simulations, run in parallel).
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=16))]
+    realisations: u16,
 }
 
 fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {
@@ -245,7 +250,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, fit_duration_s: self.fit_duration_s, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

@@ -151,3 +151,30 @@ fn a_signal_corrected_against_itself_is_unchanged() {
         assert!(d.metrics.rmse < 1e-9, "{}: {:?}", d.domain, d.metrics);
     }
 }
+
+#[test]
+fn the_mean_of_realisations_is_fitted_without_the_model_s_own_scatter() {
+    use twinscope::compare::Reference;
+    let meas = bearing_signal(12000.0, 1.5, 0.5, 1);
+    let r = Reference::new(&meas, &opts()).unwrap();
+    let one = bearing_signal(12000.0, 1.5, 0.5, 2);
+    // One realisation is the plain comparison, and a realisation averaged with itself too.
+    let plain = r.compare(&one).unwrap();
+    assert_eq!(r.compare_mean(std::slice::from_ref(&one)).unwrap(), plain);
+    assert_eq!(r.compare_mean(&[one.clone(), one.clone()]).unwrap(), plain);
+    // Against the mean of eight realisations of the same process (other impact jitter, other
+    // noise) every domain's error is smaller than the mean error against single ones: the
+    // model's own randomness no longer adds to it.
+    let reals: Vec<Signal> = (2..10).map(|s| bearing_signal(12000.0, 1.5, 0.5, s)).collect();
+    let mean = r.compare_mean(&reals).unwrap();
+    let singles: Vec<_> = reals.iter().map(|s| r.compare(s).unwrap()).collect();
+    for d in &mean.domains {
+        let single = singles.iter().map(|c| c.domain(&d.domain).unwrap().metrics.nrmse_percent).sum::<f64>() / singles.len() as f64;
+        eprintln!("{}: mean of 8 {:.2} %, single {:.2} %", d.domain, d.metrics.nrmse_percent, single);
+        assert!(d.metrics.nrmse_percent < 0.9 * single, "{}: {} vs {}", d.domain, d.metrics.nrmse_percent, single);
+    }
+    // Realisations that leave different common lengths are refused, and so is none.
+    let short = bearing_signal(12000.0, 1.0, 0.5, 3);
+    assert!(matches!(r.compare_mean(&[one.clone(), short]), Err(CompareError::Parameter { name: "simulated", .. })));
+    assert!(matches!(r.compare_mean(&[]), Err(CompareError::Parameter { name: "simulated", .. })));
+}

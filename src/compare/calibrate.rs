@@ -325,7 +325,16 @@ pub struct LoopOptions {
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
     pub decision_rule: DecisionRule,
+    /// Model realisations per evaluation (other seeds, simulated in parallel): the simulated
+    /// spectra are averaged over them before they are compared ([`Reference::compare_mean`]),
+    /// so a random effect is fitted to its expected spectrum, not to one draw of it. Default 1
+    /// (every README table); experimental above.
+    pub realisations: usize,
 }
+
+/// Seed salts of the realisations after the first in [`evaluate`] (the first keeps the
+/// machine's own seed, so one realisation is the plain evaluation).
+const REALISATION_SALT: u64 = 0x4EA1_0000;
 
 /// The significance test of a diagnosis (see [`super::diagnose::decide`]). Both require the best
 /// trial to explain at least `significance` of the error above the floor and to improve the
@@ -353,7 +362,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, decision_rule: DecisionRule::FloorMargin }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, decision_rule: DecisionRule::FloorMargin, realisations: 1 }
     }
 }
 
@@ -382,10 +391,20 @@ pub fn objective(c: &Comparison, w: &[f64; 3]) -> f64 {
 /// correction to this simulation (closed form too, like the gain), so every evaluation is
 /// judged after its own best smooth path.
 pub fn evaluate(m: &Machine, reference: &Reference, opts: &LoopOptions) -> Result<(Comparison, f64), LoopError> {
+    use rayon::prelude::*;
     let mut mm = m.clone();
     mm.duration_s = opts.fit_duration_s.min(reference.measured().duration_s());
-    let sim = model::simulate(&mm)?;
-    let mut c = reference.compare(&sim)?;
+    let sims: Vec<crate::signal::Signal> = (0..opts.realisations.max(1) as u64)
+        .into_par_iter()
+        .map(|k| {
+            let mut r = mm.clone();
+            if k > 0 {
+                r.seed = mm.seed ^ (REALISATION_SALT + k);
+            }
+            model::simulate(&r)
+        })
+        .collect::<Result<_, _>>()?;
+    let mut c = reference.compare_mean(&sims)?;
     let off_db = c
         .domain("psd_db")
         .map(|d| d.measured.iter().zip(&d.simulated).map(|(a, b)| a - b).sum::<f64>() / d.measured.len().max(1) as f64)
