@@ -583,6 +583,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         println!("  {f:<22} {s:6.1} %");
     }
     println!("\nmissing-effect ranking (last round); floor {:.2} (the model against itself), seed scatter ±{:.2}:", last.floor_objective, last.objective_scatter);
+    if last.floor_objective == 0.0 {
+        println!("  note: {}", twinscope::compare::diagnose::ZERO_FLOOR_NOTE);
+    }
     let n_tied = last.trials.iter().filter(|t| t.tied_with_best).count();
     for (i, t) in last.trials.iter().enumerate() {
         println!(

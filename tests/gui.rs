@@ -291,6 +291,9 @@ fn model_loop_finds_ranks_and_adds_an_effect() {
     assert!(h.query_by_label(&label).is_some(), "ranked label {label}");
     assert!(h.query_by_label(&format!("{:.1} -> {:.1} %", first.envelope_nrmse_before, first.envelope_nrmse_after)).is_some(), "envelope NRMSE before → after shown");
     assert!(!labels_containing(&h, "Verdict: ").is_empty());
+    // The preset has no noise: nothing random, a zero floor, and the view says what that means.
+    assert_eq!(r.diagnosis.floor_objective, 0.0);
+    assert!(!labels_containing(&h, "Note: the model has nothing random in it").is_empty(), "zero-floor note shown");
     assert_eq!(h.state().session.model.history.len(), 1);
     assert!(h.query_by_label("round 1").is_some());
 

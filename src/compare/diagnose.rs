@@ -66,6 +66,11 @@ pub struct EffectTrial {
     pub effect_explained: Option<f64>,
 }
 
+/// What the CLI and the app print when a diagnosis's floor is 0: nothing in the model is
+/// random, so [`seed_floor`]'s replicas equal the model, and the decision's floor margin and
+/// explained share lose their reference.
+pub const ZERO_FLOOR_NOTE: &str = "the model has nothing random in it (no noise, slip or fault roughness), so its replicas under other seeds are identical and its floor is 0: every error counts as explainable; switch on `noise`, as no measurement is noise-free";
+
 /// What the CLI and the app print under a trial that is [`EffectTrial::outside_band`].
 pub const OUTSIDE_BAND_NOTE: &str = "its feature was fitted at the edge of the band searched, outside what the data show: not a finding";
 

@@ -227,6 +227,9 @@ impl ModelLoopView {
             r.seconds,
             d.floor_objective
         ));
+        if d.floor_objective == 0.0 {
+            ui.add(egui::Label::new(RichText::new(format!("Note: {}", drawable(crate::compare::diagnose::ZERO_FLOOR_NOTE))).color(ui.visuals().warn_fg_color)).wrap());
+        }
         let verdict = RichText::new(format!("Verdict: {}", drawable(&d.verdict)));
         ui.add(egui::Label::new(if d.best.is_some() { verdict.strong() } else { verdict }).wrap());
         let cal = &d.calibration;
