@@ -340,40 +340,32 @@ impl Reference {
     pub fn compare_mean(&self, simulated: &[Signal]) -> Result<Comparison, CompareError> {
         let opts = &self.opts;
         let max_lag = 20;
-        let mut first: Option<(Alignment, std::sync::Arc<MeasuredDomains>, Option<dsp::path_correction::PathCorrection>)> = None;
-        let (mut es_sum, mut ps_sum, mut slice_sums): (Vec<f64>, Vec<f64>, Vec<Vec<f64>>) = (Vec::new(), Vec::new(), Vec::new());
-        let mut first_len = 0;
+        // (alignment, measured domains, common length, sum of the simulated domains)
+        let mut acc: Option<(Alignment, std::sync::Arc<MeasuredDomains>, usize, SimulatedDomains)> = None;
         for (i, one) in simulated.iter().enumerate() {
             let (meas, sim, al) = align(&self.measured, one, opts)?;
-            if i == 0 {
-                first_len = meas.len();
-            } else if meas.len() != first_len {
-                return Err(CompareError::Parameter { name: "simulated", reason: format!("realisation {} leaves another common length ({} samples against {})", i + 1, meas.len(), first_len) });
-            }
-            let md = self.domains(&meas)?;
-            let (es_on, ps_on, slices, pc) = self.simulated_domains(&md, &sim, &al)?;
-            if first.is_none() {
-                (es_sum, ps_sum, slice_sums) = (es_on, ps_on, slices);
-                first = Some((al, md, pc));
-            } else {
-                add_to(&mut es_sum, &es_on);
-                add_to(&mut ps_sum, &ps_on);
-                for (acc, b) in slice_sums.iter_mut().zip(&slices) {
-                    add_to(acc, b);
+            match &mut acc {
+                None => {
+                    let md = self.domains(&meas)?;
+                    let sd = self.simulated_domains(&md, &sim, &al)?;
+                    acc = Some((al, md, meas.len(), sd));
+                }
+                Some((_, md, n0, sum)) => {
+                    if meas.len() != *n0 {
+                        return Err(CompareError::Parameter { name: "simulated", reason: format!("realisation {} leaves another common length ({} samples against {n0})", i + 1, meas.len()) });
+                    }
+                    sum.add(&self.simulated_domains(md, &sim, &al)?);
                 }
             }
         }
-        let Some((al, md, path_correction)) = first else {
+        let Some((al, md, _, mut sim_d)) = acc else {
             return Err(CompareError::Parameter { name: "simulated", reason: "no simulated signal to compare".into() });
         };
         if simulated.len() > 1 {
-            let n = simulated.len() as f64;
-            for v in es_sum.iter_mut().chain(ps_sum.iter_mut()).chain(slice_sums.iter_mut().flatten()) {
-                *v /= n;
-            }
+            sim_d.scale(1.0 / simulated.len() as f64);
         }
+        let SimulatedDomains { envelope: es_on, psd: ps_sum, slices: slice_sums, path_correction } = sim_d;
         let mut domains = Vec::new();
-        let es_on = es_sum;
         domains.push(DomainComparison {
             domain: "envelope".into(),
             quantity: "envelope spectrum of the unit-RMS signal".into(),
@@ -408,10 +400,9 @@ impl Reference {
         Ok(Comparison { alignment: al, domains, path_correction })
     }
 
-    /// One aligned simulated signal's quantities on the measured axes: envelope spectrum, PSD
-    /// (linear) and |SCF| slices, after its own transfer-path correction if any.
-    #[allow(clippy::type_complexity)]
-    fn simulated_domains(&self, md: &MeasuredDomains, sim: &[f64], al: &Alignment) -> Result<(Vec<f64>, Vec<f64>, Vec<Vec<f64>>, Option<dsp::path_correction::PathCorrection>), CompareError> {
+    /// One aligned simulated signal's quantities on the measured axes, after its own
+    /// transfer-path correction if any.
+    fn simulated_domains(&self, md: &MeasuredDomains, sim: &[f64], al: &Alignment) -> Result<SimulatedDomains, CompareError> {
         let opts = &self.opts;
         let fs = al.fs_hz;
         let corrected;
@@ -435,7 +426,7 @@ impl Reference {
                 slices.push(ss.alpha_slice(alpha / al.speed_ratio).map_err(dsp_err(name))?.1);
             }
         }
-        Ok((es_on, ps_on, slices, path_correction))
+        Ok(SimulatedDomains { envelope: es_on, psd: ps_on, slices, path_correction })
     }
 
     /// The transfer-path correction of an aligned simulated signal: its Welch PSD on the
@@ -453,9 +444,33 @@ impl Reference {
     }
 }
 
-fn add_to(acc: &mut [f64], x: &[f64]) {
-    for (a, b) in acc.iter_mut().zip(x) {
-        *a += b;
+/// A simulated signal's quantities on the measured axes (see [`Reference::compare_mean`]).
+struct SimulatedDomains {
+    /// Envelope spectrum.
+    envelope: Vec<f64>,
+    /// Welch PSD, linear.
+    psd: Vec<f64>,
+    /// |SCF| at each of the measured side's α-slices.
+    slices: Vec<Vec<f64>>,
+    /// The transfer-path correction applied first, if any.
+    path_correction: Option<dsp::path_correction::PathCorrection>,
+}
+
+impl SimulatedDomains {
+    /// Adds another realisation's quantities (the correction stays this one's).
+    fn add(&mut self, o: &Self) {
+        let pairs = std::iter::once((&mut self.envelope, &o.envelope)).chain(std::iter::once((&mut self.psd, &o.psd))).chain(self.slices.iter_mut().zip(&o.slices));
+        for (acc, x) in pairs {
+            for (a, b) in acc.iter_mut().zip(x) {
+                *a += b;
+            }
+        }
+    }
+
+    fn scale(&mut self, k: f64) {
+        for v in self.envelope.iter_mut().chain(self.psd.iter_mut()).chain(self.slices.iter_mut().flatten()) {
+            *v *= k;
+        }
     }
 }
 
