@@ -234,14 +234,15 @@ struct SearchArgs {
     /// Model realisations (seeds) per evaluation, their spectra averaged before comparing, so
     /// random effects (slip, noise) are fitted to their expected spectra (experimental; each
     /// evaluation costs K simulations, run in parallel).
-    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=16))]
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
     realisations: u16,
 }
 
 fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {
     let v: f64 = s.parse().map_err(|e| format!("{s}: {e}"))?;
-    if !(v.is_finite() && (0.2..=60.0).contains(&v)) {
-        return Err(format!("{s}: give 0.2 to 60 s"));
+    let range = twinscope::compare::FIT_DURATION_RANGE_S;
+    if !(v.is_finite() && range.contains(&v)) {
+        return Err(format!("{s}: give {} to {} s", range.start(), range.end()));
     }
     Ok(v)
 }
@@ -542,7 +543,6 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         m.effects.enable(twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
     }
     m.validate()?;
-    anyhow::ensure!(opts.fit_duration_s.is_finite() && opts.fit_duration_s >= 0.2, "--fit-duration-s must be at least 0.2 s");
     if let Some(b) = band_hz {
         anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz");
         opts.compare.envelope_band_hz = [b[0], b[1]];

@@ -186,7 +186,8 @@ pub struct LoopSpec {
     /// Effects the search may try. Default: every applicable effect the model lacks.
     #[serde(default)]
     pub candidates: Vec<String>,
-    /// Model time simulated per evaluation, s (≥ 0.2). Default 1.5.
+    /// Model time simulated per evaluation, s (0.2–60, `compare::FIT_DURATION_RANGE_S`).
+    /// Default 1.5.
     #[serde(default = "LoopSpec::default_fit_duration_s")]
     pub fit_duration_s: f64,
     /// When the calibration pins a parameter, also start the trials from the uncalibrated
@@ -230,14 +231,9 @@ impl LoopSpec {
         if !(1..=20).contains(&self.rounds) {
             return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
         }
-        if !(self.fit_duration_s.is_finite() && self.fit_duration_s >= 0.2) {
-            return Err(format!("`model_loop.fit_duration_s` = {}: must be at least 0.2 s", self.fit_duration_s));
-        }
-        if self.path_correction_bands > crate::compare::MAX_PATH_CORRECTION_BANDS {
-            return Err(format!("`model_loop.path_correction_bands` = {}: must be 0 (off) to {}", self.path_correction_bands, crate::compare::MAX_PATH_CORRECTION_BANDS));
-        }
         let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, decision_rule: self.decision_rule, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
+        o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
             chain::Op::Bandpass(b) => Some(b.pass_band_hz),
             _ => None,
@@ -505,5 +501,13 @@ mod tests {
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npath_correction_bands = 65").unwrap();
         let e = spec.options(&chain).unwrap_err();
         assert!(e.contains("path_correction_bands") && e.contains("65"), "{e}");
+        // The fit duration takes the library's range, both ends.
+        for bad in ["0.1", "61.0", "nan"] {
+            let spec: LoopSpec = toml::from_str(&format!("preset = \"cwru_6205_inner\"\nfit_duration_s = {bad}")).unwrap();
+            let e = spec.options(&chain).unwrap_err();
+            assert!(e.contains("fit_duration_s") && e.contains("0.2 to 60"), "{bad}: {e}");
+        }
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfit_duration_s = 60.0").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().fit_duration_s, 60.0);
     }
 }

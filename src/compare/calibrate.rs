@@ -289,7 +289,8 @@ pub enum LoopError {
 pub struct LoopOptions {
     /// The comparison.
     pub compare: CompareOptions,
-    /// Simulated (and compared) duration during fitting, s. Default 1.5.
+    /// Simulated (and compared) duration during fitting, s, within [`FIT_DURATION_RANGE_S`].
+    /// Default 1.5.
     pub fit_duration_s: f64,
     /// Golden-section evaluations per parameter and sweep. Default 9.
     pub evaluations_per_parameter: usize,
@@ -330,6 +331,46 @@ pub struct LoopOptions {
     /// so a random effect is fitted to its expected spectrum, not to one draw of it. Default 1
     /// (every README table); experimental above.
     pub realisations: usize,
+}
+
+/// The range of [`LoopOptions::fit_duration_s`], s: below 0.2 s a record holds too few fault
+/// impacts and shaft turns to compare spectra; above 60 s one evaluation costs minutes. The
+/// library's check ([`LoopOptions::validate`]), the CLI, batch jobs and the app share it.
+pub const FIT_DURATION_RANGE_S: std::ops::RangeInclusive<f64> = 0.2..=60.0;
+
+/// The most model realisations per evaluation ([`LoopOptions::realisations`]).
+pub const MAX_REALISATIONS: usize = 16;
+
+impl LoopOptions {
+    /// Checks the settings a user can give: the fit duration within
+    /// [`FIT_DURATION_RANGE_S`], 1 to [`MAX_REALISATIONS`] realisations, at most
+    /// [`super::MAX_PATH_CORRECTION_BANDS`] correction bands, finite non-negative weights (not
+    /// all zero), a significance in (0, 1] and a finite non-negative floor margin. The loop's
+    /// entry points ([`super::diagnose::diagnose_with`], [`super::diagnose::run_loop`]) call it,
+    /// so a bad setting is refused before any simulation.
+    pub fn validate(&self) -> Result<(), CompareError> {
+        let bad = |name: &'static str, reason: String| Err(CompareError::Parameter { name, reason });
+        let (lo, hi) = (*FIT_DURATION_RANGE_S.start(), *FIT_DURATION_RANGE_S.end());
+        if !(self.fit_duration_s.is_finite() && FIT_DURATION_RANGE_S.contains(&self.fit_duration_s)) {
+            return bad("fit_duration_s", format!("{} s: give {lo} to {hi} s", self.fit_duration_s));
+        }
+        if !(1..=MAX_REALISATIONS).contains(&self.realisations) {
+            return bad("realisations", format!("{}: give 1 to {MAX_REALISATIONS}", self.realisations));
+        }
+        if self.compare.path_correction_bands > super::MAX_PATH_CORRECTION_BANDS {
+            return bad("path_correction_bands", format!("{}: at most {} bands (0 = off)", self.compare.path_correction_bands, super::MAX_PATH_CORRECTION_BANDS));
+        }
+        if !(self.weights.iter().all(|w| w.is_finite() && *w >= 0.0) && self.weights.iter().any(|w| *w > 0.0)) {
+            return bad("weights", format!("{:?}: give finite non-negative weights, not all zero", self.weights));
+        }
+        if !(self.significance > 0.0 && self.significance <= 1.0) {
+            return bad("significance", format!("{}: give a share in (0, 1]", self.significance));
+        }
+        if !(self.floor_margin.is_finite() && self.floor_margin >= 0.0) {
+            return bad("floor_margin", format!("{}: give a finite margin ≥ 0", self.floor_margin));
+        }
+        Ok(())
+    }
 }
 
 /// Seed salts of the realisations after the first in [`evaluate`] (the first keeps the
@@ -737,5 +778,30 @@ mod tests {
         assert!(!at_search_bound(-8.0, -10.0, 40.0, false));
         // Beyond the range (a later sweep moved the bracket) counts as at the edge.
         assert!(at_search_bound(4000.0, 1820.0, 3640.0, true));
+    }
+
+    #[test]
+    fn loop_settings_outside_their_ranges_are_refused_by_name() {
+        assert!(LoopOptions::default().validate().is_ok());
+        let edges = LoopOptions { fit_duration_s: 60.0, realisations: MAX_REALISATIONS, significance: 1.0, floor_margin: 0.0, weights: [0.0, 0.0, 1.0], ..Default::default() };
+        assert!(edges.validate().is_ok());
+        let mut bands = LoopOptions::default();
+        bands.compare.path_correction_bands = super::super::MAX_PATH_CORRECTION_BANDS + 1;
+        let cases = [
+            (LoopOptions { fit_duration_s: 0.1, ..Default::default() }, "fit_duration_s"),
+            (LoopOptions { fit_duration_s: 61.0, ..Default::default() }, "fit_duration_s"),
+            (LoopOptions { fit_duration_s: f64::NAN, ..Default::default() }, "fit_duration_s"),
+            (LoopOptions { realisations: 0, ..Default::default() }, "realisations"),
+            (LoopOptions { realisations: MAX_REALISATIONS + 1, ..Default::default() }, "realisations"),
+            (bands, "path_correction_bands"),
+            (LoopOptions { weights: [0.0; 3], ..Default::default() }, "weights"),
+            (LoopOptions { weights: [1.0, -0.5, 0.25], ..Default::default() }, "weights"),
+            (LoopOptions { significance: 0.0, ..Default::default() }, "significance"),
+            (LoopOptions { floor_margin: f64::INFINITY, ..Default::default() }, "floor_margin"),
+        ];
+        for (o, name) in cases {
+            let e = o.validate().unwrap_err().to_string();
+            assert!(e.contains(name), "{name}: {e}");
+        }
     }
 }

@@ -384,6 +384,7 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 
 /// [`diagnose`] against a prepared [`Reference`].
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
+    opts.validate()?;
     let measured = reference;
     let cal_params = calibration_parameters_for(m, opts);
     let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, m) && (opts.candidates.is_empty() || opts.candidates.contains(k))).collect();
@@ -834,6 +835,7 @@ struct Replacement {
 /// ties in [`decide`]); the round records it (`removed`, `applied`) and
 /// the next round starts from that diagnosis.
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
+    opts.validate()?;
     let reference = Reference::new(measured, &opts.compare)?;
     let progress = &LoopProgress::new(progress);
     let rounds = rounds.max(1);
@@ -1164,5 +1166,23 @@ mod tests {
         let (text, share) = evidence(EffectKind::CasingModes, &map, Some(3200.0));
         assert!(text.contains("3000–3375 Hz (-19.4 dB") && text.contains("(3200 Hz)"), "{text}");
         assert_eq!(share, 56.0);
+    }
+
+    #[test]
+    fn the_loop_refuses_bad_settings_before_any_simulation() {
+        let m = crate::model::preset("cwru_6205_inner").unwrap();
+        let measured = Signal::new(vec![0.0; 24_000], 12_000.0, "quiet", "m/s^2");
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let progress = |_: usize, _: usize| {
+            calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            true
+        };
+        let opts = LoopOptions { fit_duration_s: 90.0, ..Default::default() };
+        let e = diagnose(&m, &measured, &opts, &progress).unwrap_err().to_string();
+        assert!(e.contains("fit_duration_s") && e.contains("90"), "{e}");
+        let opts = LoopOptions { realisations: 0, ..Default::default() };
+        let e = run_loop(&m, &measured, 2, &opts, &progress).unwrap_err().to_string();
+        assert!(e.contains("realisations"), "{e}");
+        assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), 0);
     }
 }

@@ -345,8 +345,8 @@ impl Workbench {
         let mut opts = self.settings.loop_options(jobs::compare_options_for(&self.session.chain));
         // Effects added in earlier rounds are re-fitted by the calibration, as `run_loop` does.
         opts.refit_effects = crate::compare::diagnose::applied_effects(&self.session.model.history);
-        if !(opts.fit_duration_s.is_finite() && opts.fit_duration_s >= 0.2) {
-            self.session.tell(Level::Error, format!("fit duration {} s: must be at least 0.2 s", opts.fit_duration_s));
+        if let Err(e) = opts.validate() {
+            self.session.tell(Level::Error, format!("model loop settings: {e}"));
             return;
         }
         let n = if opts.candidates.is_empty() { "every missing effect".to_string() } else { format!("{} candidate effects", opts.candidates.len()) };

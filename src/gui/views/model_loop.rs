@@ -132,7 +132,7 @@ impl ModelLoopView {
         egui::CollapsingHeader::new("Search settings").default_open(false).show(ui, |ui| {
             egui::Grid::new("search-settings").num_columns(2).show(ui, |ui| {
                 ui.label("fit duration").on_hover_text("simulated and compared duration of each model evaluation");
-                ui.add(egui::DragValue::new(&mut s.loop_fit_duration_s).range(0.2..=20.0).speed(0.05).suffix(" s"));
+                ui.add(egui::DragValue::new(&mut s.loop_fit_duration_s).range(crate::compare::FIT_DURATION_RANGE_S).speed(0.05).suffix(" s"));
                 ui.end_row();
                 ui.label("evaluations per parameter").on_hover_text("golden-section evaluations per parameter and sweep");
                 ui.add(egui::DragValue::new(&mut s.loop_evaluations_per_parameter).range(3..=40));
