@@ -440,6 +440,28 @@ fn model_loop_search_shows_progress_and_cancels() {
     assert_eq!(s.session.signals.len(), 1, "nothing loaded is lost");
 }
 
+/// The search settings take the number of model realisations (and the fit duration) from
+/// their editors into the loop options, within the library's ranges.
+#[test]
+fn search_settings_set_the_realisations_and_fit_duration() {
+    let mut h = harness(StartOptions { tab: Some("model".into()), ..Default::default() });
+    h.run_steps(2);
+    h.get_by_label("Search settings").click();
+    h.run_steps(2);
+    let set = |h: &mut Harness<'static, Workbench>, label: &str, v: f64| {
+        h.get_all_by_role(Role::SpinButton).find(|n| n.accesskit_node().label().as_deref() == Some(label)).unwrap_or_else(|| panic!("{label} editor")).set_value_accesskit(v);
+        h.run_steps(3);
+    };
+    set(&mut h, "model realisations", 3.0);
+    set(&mut h, "fit duration", 0.7);
+    let o = h.state().settings.loop_options(Default::default());
+    assert_eq!((o.realisations, o.fit_duration_s), (3, 0.7));
+    // Beyond the range: the editor clamps to the library's limit.
+    set(&mut h, "model realisations", 99.0);
+    assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);
+    assert!(h.state().settings.loop_options(Default::default()).validate().is_ok());
+}
+
 /// The model-loop view's history shows each round's seed floor next to its objective (what a
 /// perfect model would still score), and "-" for a round recorded from a trial's fit.
 #[test]

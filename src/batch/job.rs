@@ -202,6 +202,10 @@ pub struct LoopSpec {
     /// `"scatter"` (experimental).
     #[serde(default)]
     pub decision_rule: crate::compare::DecisionRule,
+    /// Model realisations averaged per evaluation (`LoopOptions::realisations`), 1–16.
+    /// Default: the library's.
+    #[serde(default = "LoopSpec::default_realisations")]
+    pub realisations: usize,
 }
 
 impl LoopSpec {
@@ -211,6 +215,10 @@ impl LoopSpec {
 
     fn default_rounds() -> usize {
         3
+    }
+
+    fn default_realisations() -> usize {
+        crate::compare::LoopOptions::default().realisations
     }
 
     fn default_fit_duration_s() -> f64 {
@@ -231,7 +239,7 @@ impl LoopSpec {
         if !(1..=20).contains(&self.rounds) {
             return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, decision_rule: self.decision_rule, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, decision_rule: self.decision_rule, realisations: self.realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
@@ -509,5 +517,12 @@ mod tests {
         }
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfit_duration_s = 60.0").unwrap();
         assert_eq!(spec.options(&chain).unwrap().fit_duration_s, 60.0);
+        // Realisations: the library's default unless given, and its range.
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().realisations, crate::compare::LoopOptions::default().realisations);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nrealisations = 4").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().realisations, 4);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nrealisations = 0").unwrap();
+        assert!(spec.options(&chain).unwrap_err().contains("realisations"));
     }
 }

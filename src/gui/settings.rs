@@ -46,6 +46,8 @@ pub struct Settings {
     /// Model loop: transfer-path correction bands (`CompareOptions::path_correction_bands`;
     /// 0 = off).
     pub loop_path_correction_bands: usize,
+    /// Model loop: model realisations averaged per evaluation (`LoopOptions::realisations`).
+    pub loop_realisations: usize,
 }
 
 impl Default for Settings {
@@ -67,6 +69,7 @@ impl Default for Settings {
             loop_candidates: Vec::new(),
             loop_unbend_pinned: true,
             loop_path_correction_bands: 0,
+            loop_realisations: LoopOptions::default().realisations,
         }
     }
 }
@@ -120,6 +123,7 @@ impl Settings {
             sweeps: self.loop_sweeps,
             candidates: self.loop_candidates.clone(),
             unbend_pinned: self.loop_unbend_pinned,
+            realisations: self.loop_realisations.clamp(1, crate::compare::MAX_REALISATIONS),
             ..Default::default()
         }
     }

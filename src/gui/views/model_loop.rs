@@ -131,8 +131,8 @@ impl ModelLoopView {
         let mut s = settings.clone();
         egui::CollapsingHeader::new("Search settings").default_open(false).show(ui, |ui| {
             egui::Grid::new("search-settings").num_columns(2).show(ui, |ui| {
-                ui.label("fit duration").on_hover_text("simulated and compared duration of each model evaluation");
-                ui.add(egui::DragValue::new(&mut s.loop_fit_duration_s).range(crate::compare::FIT_DURATION_RANGE_S).speed(0.05).suffix(" s"));
+                let l = ui.label("fit duration").on_hover_text("simulated and compared duration of each model evaluation");
+                ui.add(egui::DragValue::new(&mut s.loop_fit_duration_s).range(crate::compare::FIT_DURATION_RANGE_S).speed(0.05).suffix(" s")).labelled_by(l.id);
                 ui.end_row();
                 ui.label("evaluations per parameter").on_hover_text("golden-section evaluations per parameter and sweep");
                 ui.add(egui::DragValue::new(&mut s.loop_evaluations_per_parameter).range(3..=40));
@@ -142,6 +142,9 @@ impl ModelLoopView {
                 ui.end_row();
                 ui.label("transfer-path correction").on_hover_text("fit a smooth gain curve on this many log-spaced PSD bands to every evaluation before comparing (0 = off): for a real record whose sensor path the model does not describe; spectral-shape effects then compete only on what the bands cannot absorb");
                 ui.add(egui::DragValue::new(&mut s.loop_path_correction_bands).range(0..=crate::compare::MAX_PATH_CORRECTION_BANDS).suffix(" bands"));
+                ui.end_row();
+                let l = ui.label("model realisations").on_hover_text("average the spectra of this many model seeds in every evaluation, so a random effect (slip, a rough fault, noise) is fitted to its expected spectrum, not to one draw of it; each evaluation costs this many simulations, run in parallel");
+                ui.add(egui::DragValue::new(&mut s.loop_realisations).range(1..=crate::compare::MAX_REALISATIONS)).labelled_by(l.id);
                 ui.end_row();
             });
             ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, also start the trials from the uncalibrated values")
