@@ -232,9 +232,10 @@ struct SearchArgs {
     #[arg(long, value_name = "S", default_value_t = LoopOptions::default().fit_duration_s, value_parser = parse_fit_duration_s)]
     fit_duration_s: f64,
     /// Model realisations (seeds) per evaluation, their spectra averaged before comparing, so
-    /// random effects (slip, noise) are fitted to their expected spectra (experimental; each
-    /// evaluation costs K simulations, run in parallel).
-    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
+    /// random effects (slip, a rough fault, noise) are fitted to their expected spectra, not to
+    /// one draw (each evaluation costs K simulations, run in parallel; not the default: a
+    /// held-out pair made a false claim with 2, README "Detection limits").
+    #[arg(long, value_name = "K", default_value_t = LoopOptions::default().realisations as u16, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
     realisations: u16,
 }
 
