@@ -361,9 +361,7 @@ impl LoopOptions {
         if !(1..=MAX_REALISATIONS).contains(&self.realisations) {
             return bad("realisations", format!("{}: give 1 to {MAX_REALISATIONS}", self.realisations));
         }
-        if self.compare.path_correction_bands > super::MAX_PATH_CORRECTION_BANDS {
-            return bad("path_correction_bands", format!("{}: at most {} bands (0 = off)", self.compare.path_correction_bands, super::MAX_PATH_CORRECTION_BANDS));
-        }
+        super::check_path_correction_bands(self.compare.path_correction_bands)?;
         if !(self.weights.iter().all(|w| w.is_finite() && *w >= 0.0) && self.weights.iter().any(|w| *w > 0.0)) {
             return bad("weights", format!("{:?}: give finite non-negative weights, not all zero", self.weights));
         }

@@ -43,6 +43,15 @@ pub enum CompareError {
 /// the CLI, batch jobs and the app share the limit.
 pub const MAX_PATH_CORRECTION_BANDS: usize = 64;
 
+/// Refuses more than [`MAX_PATH_CORRECTION_BANDS`] correction bands: [`Reference::new`] and
+/// [`LoopOptions::validate`] share this check.
+pub(crate) fn check_path_correction_bands(n: usize) -> Result<(), CompareError> {
+    if n > MAX_PATH_CORRECTION_BANDS {
+        return Err(CompareError::Parameter { name: "path_correction_bands", reason: format!("{n}: at most {MAX_PATH_CORRECTION_BANDS} bands (0 = off)") });
+    }
+    Ok(())
+}
+
 /// Comparison settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -271,9 +280,7 @@ impl Reference {
                 return Err(CompareError::Parameter { name: "fault_frequency_hz", reason: format!("{f} Hz: must be a frequency between 0 and the Nyquist frequency ({} Hz)", measured.fs_hz / 2.0) });
             }
         }
-        if opts.path_correction_bands > MAX_PATH_CORRECTION_BANDS {
-            return Err(CompareError::Parameter { name: "path_correction_bands", reason: format!("{}: at most {MAX_PATH_CORRECTION_BANDS} bands (0 = off)", opts.path_correction_bands) });
-        }
+        check_path_correction_bands(opts.path_correction_bands)?;
         let taps = envelope_filter(measured.fs_hz, opts)?;
         Ok(Self { measured: measured.clone(), opts: opts.clone(), taps, cache: std::sync::Mutex::new(Vec::new()) })
     }
