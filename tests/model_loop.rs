@@ -338,7 +338,8 @@ fn trials_from_the_uncalibrated_values_find_what_a_bent_calibration_hides() {
 /// A random effect fitted against one draw of the model is biased low: the error against a
 /// single realisation holds the model's own scatter, which grows with the effect, so the fit
 /// trades true slip for less scatter. Against the mean spectra of several realisations
-/// (`LoopOptions::realisations`) the fit follows the truth (README "Detection limits").
+/// (`LoopOptions::realisations`), with their own scatter taken out of the error, the fit
+/// follows the truth (README "Detection limits").
 #[test]
 fn slip_is_fitted_to_its_expected_spectrum_with_several_realisations() {
     let mut truth = model::preset("mfs_inner").unwrap();
@@ -353,16 +354,19 @@ fn slip_is_fitted_to_its_expected_spectrum_with_several_realisations() {
     start.seed = 77;
     Param::SlipPercent.set(&mut start, 1.0);
     let fitted = |k: usize| {
-        let opts = LoopOptions { realisations: k, sweeps: 1, ..Default::default() };
+        let opts = LoopOptions { realisations: k, ..Default::default() };
         let reference = Reference::new(&measured, &opts.compare).unwrap();
         let (m, f) = fit(&start, &reference, &[Param::SlipPercent], 1, &opts).unwrap();
         let slip = Param::SlipPercent.get(&m).unwrap();
         eprintln!("K = {k}: slip {slip:.2} %, objective {:.2} → {:.2}", f.objective_before, f.objective_after);
         slip
     };
-    // On this draw: 2.95, 3.52, 3.80 and 4.67 % for 1, 2, 4 and 8 realisations (the bias
-    // falls as 1/K, as the model's scatter in the mean does).
-    let (one, eight) = (fitted(1), fitted(8));
+    // On this draw, 2.95, 4.11, 4.45 and 5.30 % for 1, 2, 4 and 8 realisations. Before the
+    // objective took the mean's own scatter out (DomainComparison::debiased_nrmse_percent),
+    // 2, 4 and 8 gave 3.52, 3.80 and 4.67 %: the bias fell as 1/K; now most of it is gone at
+    // K = 2 (one realisation has no scatter estimate and keeps the bias).
+    let (one, two, eight) = (fitted(1), fitted(2), fitted(8));
     assert!(one < 3.5, "one realisation: {one} % for a true 5 % (the bias this test documents)");
+    assert!(two > one + 0.75 && (two - 5.0).abs() < 1.0, "two realisations: {two} % for a true 5 % (one: {one} %)");
     assert!((eight - 5.0).abs() < 0.75 && eight > one + 1.0, "eight realisations: {eight} % for a true 5 % (one: {one} %)");
 }

@@ -413,6 +413,10 @@ impl Default for LoopOptions {
 /// `w[1]`, each SCF α-slice × `w[2]`. The loop compares the α = 0 and shaft slices; the slice at
 /// the fault frequency joins only if `CompareOptions::fault_frequency_hz` is set (on a hidden
 /// 1.7 % slip it moved objective / floor from 1.36 to 1.37, so it is not added by default).
+/// With several model realisations ([`LoopOptions::realisations`]) each domain's NRMSE is
+/// taken with the simulated mean's own scatter removed
+/// ([`DomainComparison::debiased_nrmse_percent`](crate::compare::DomainComparison::debiased_nrmse_percent)):
+/// the distance to the model's expected spectra, unbiased in K.
 pub fn objective(c: &Comparison, w: &[f64; 3]) -> f64 {
     let mut j = 0.0;
     for d in &c.domains {
@@ -421,8 +425,9 @@ pub fn objective(c: &Comparison, w: &[f64; 3]) -> f64 {
             "psd_db" => w[1],
             _ => w[2],
         };
-        if d.metrics.nrmse_percent.is_finite() {
-            j += wt * d.metrics.nrmse_percent;
+        let nrmse = d.debiased_nrmse_percent();
+        if nrmse.is_finite() {
+            j += wt * nrmse;
         }
     }
     j

@@ -259,8 +259,10 @@ pub fn seed_floor(m: &Machine, like: &Signal, against: &Comparison, opts: &LoopO
     let n = runs.len() as f64;
     let mut floor = against.clone();
     for d in floor.domains.iter_mut() {
-        let rmse = runs.iter().filter_map(|c| c.domain(&d.domain)).map(|x| x.metrics.rmse).sum::<f64>() / n;
+        // The replicas' RMSE with their simulated mean's own scatter out (as in the objective).
+        let rmse = runs.iter().filter_map(|c| c.domain(&d.domain)).map(|x| x.debiased_rmse()).sum::<f64>() / n;
         d.metrics.rmse = rmse;
+        d.scatter_rmse = 0.0;
         d.metrics.nrmse_percent = if d.metrics.normaliser_value > 0.0 { 100.0 * rmse / d.metrics.normaliser_value } else { f64::NAN };
     }
     let domains = floor.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent)).collect();

@@ -114,6 +114,42 @@ pub struct DomainComparison {
     pub simulated: Vec<f64>,
     /// Metrics of simulated against measured.
     pub metrics: Metrics,
+    /// The simulated mean's own scatter, in the quantity's unit: the RMS over the axis of the
+    /// standard error s/√K of the mean of K realisations ([`Reference::compare_mean`]); 0 with
+    /// one realisation, where it cannot be estimated.
+    #[serde(default)]
+    pub scatter_rmse: f64,
+}
+
+impl DomainComparison {
+    /// NRMSE (%) with the simulated mean's own scatter taken out:
+    /// `√max(RMSE² − scatter², 0) / normaliser × 100`. The measured quantity m and the mean
+    /// s̄ of K independent realisations give `E[(m − s̄)²] = E[(m − μ)²] + Var(s)/K` per bin
+    /// (μ the model's expected quantity), and the sample variance s² of the realisations is
+    /// an unbiased estimate of Var(s): so `RMSE² − scatter²` estimates the squared distance of
+    /// the measurement to the model's *expected* quantity without the model's own randomness
+    /// in it, which otherwise penalises random effects (slip) the more the fewer realisations.
+    /// Equal to `metrics.nrmse_percent` when the scatter is 0.
+    pub fn debiased_nrmse_percent(&self) -> f64 {
+        if self.scatter_rmse == 0.0 {
+            return self.metrics.nrmse_percent;
+        }
+        let v = self.metrics.normaliser_value;
+        if v > 0.0 {
+            100.0 * self.debiased_rmse() / v
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// The RMSE with the simulated mean's own scatter taken out, `√max(RMSE² − scatter², 0)`
+    /// (see [`Self::debiased_nrmse_percent`]); the RMSE itself when the scatter is 0.
+    pub fn debiased_rmse(&self) -> f64 {
+        if self.scatter_rmse == 0.0 {
+            return self.metrics.rmse;
+        }
+        (self.metrics.rmse.powi(2) - self.scatter_rmse.powi(2)).max(0.0).sqrt()
+    }
 }
 
 /// How the two signals were brought together.
@@ -338,7 +374,9 @@ impl Reference {
 
     /// Compares the mean of several simulated realisations (one model, other seeds) with the
     /// measurement: each domain's simulated quantity (envelope spectrum, PSD, |SCF| slice) is
-    /// averaged over them before the metrics; a transfer-path correction is fitted to each
+    /// averaged over them before the metrics, and the mean's own scatter (standard error) is
+    /// kept per domain ([`DomainComparison::scatter_rmse`], used by the loop's objective through
+    /// [`DomainComparison::debiased_nrmse_percent`]); a transfer-path correction is fitted to each
     /// (the first one's is reported). The measurement is one realisation of the machine, and
     /// the model's *expected* spectra are what it should be fitted to: against a single model
     /// realisation the model's own randomness adds to the error, the more the more random the
@@ -347,31 +385,33 @@ impl Reference {
     pub fn compare_mean(&self, simulated: &[Signal]) -> Result<Comparison, CompareError> {
         let opts = &self.opts;
         let max_lag = 20;
-        // (alignment, measured domains, common length, sum of the simulated domains)
-        let mut acc: Option<(Alignment, std::sync::Arc<MeasuredDomains>, usize, SimulatedDomains)> = None;
+        // (alignment, measured domains, common length) of the first realisation, and every
+        // realisation's simulated domains.
+        let mut first: Option<(Alignment, std::sync::Arc<MeasuredDomains>, usize)> = None;
+        let mut each = Vec::with_capacity(simulated.len());
         for (i, one) in simulated.iter().enumerate() {
             let (meas, sim, al) = align(&self.measured, one, opts)?;
-            match &mut acc {
+            match &first {
                 None => {
                     let md = self.domains(&meas)?;
-                    let sd = self.simulated_domains(&md, &sim, &al)?;
-                    acc = Some((al, md, meas.len(), sd));
+                    each.push(self.simulated_domains(&md, &sim, &al)?);
+                    first = Some((al, md, meas.len()));
                 }
-                Some((_, md, n0, sum)) => {
+                Some((_, md, n0)) => {
                     if meas.len() != *n0 {
                         return Err(CompareError::Parameter { name: "simulated", reason: format!("realisation {} leaves another common length ({} samples against {n0})", i + 1, meas.len()) });
                     }
-                    sum.add(&self.simulated_domains(md, &sim, &al)?);
+                    each.push(self.simulated_domains(md, &sim, &al)?);
                 }
             }
         }
-        let Some((al, md, _, mut sim_d)) = acc else {
+        let Some((al, md, _)) = first else {
             return Err(CompareError::Parameter { name: "simulated", reason: "no simulated signal to compare".into() });
         };
-        if simulated.len() > 1 {
-            sim_d.scale(1.0 / simulated.len() as f64);
-        }
+        let (sim_d, scatter) = SimulatedDomains::mean_and_scatter(each);
         let SimulatedDomains { envelope: es_on, psd: ps_sum, slices: slice_sums, path_correction } = sim_d;
+        let mut scatter = scatter.into_iter();
+        let mut next_scatter = || scatter.next().unwrap_or(0.0);
         let mut domains = Vec::new();
         domains.push(DomainComparison {
             domain: "envelope".into(),
@@ -380,6 +420,7 @@ impl Reference {
             frequency_hz: md.envelope.frequency_hz.clone(),
             measured: md.envelope.values.clone(),
             simulated: es_on,
+            scatter_rmse: next_scatter(),
         });
 
         let ps_db: Vec<f64> = ps_sum.iter().map(|v| db(*v)).collect();
@@ -390,6 +431,7 @@ impl Reference {
             frequency_hz: md.psd.frequency_hz.clone(),
             measured: md.psd_db.clone(),
             simulated: ps_db,
+            scatter_rmse: next_scatter(),
         });
 
         if md.scf_params.is_some() {
@@ -401,6 +443,7 @@ impl Reference {
                     frequency_hz: f.clone(),
                     measured: a.clone(),
                     simulated: b,
+                    scatter_rmse: next_scatter(),
                 });
             }
         }
@@ -464,20 +507,54 @@ struct SimulatedDomains {
 }
 
 impl SimulatedDomains {
-    /// Adds another realisation's quantities (the correction stays this one's).
-    fn add(&mut self, o: &Self) {
-        let pairs = std::iter::once((&mut self.envelope, &o.envelope)).chain(std::iter::once((&mut self.psd, &o.psd))).chain(self.slices.iter_mut().zip(&o.slices));
-        for (acc, x) in pairs {
-            for (a, b) in acc.iter_mut().zip(x) {
-                *a += b;
-            }
-        }
+    /// The quantities in the order of the comparison's domains: envelope, PSD (linear),
+    /// slices.
+    fn quantities(&self) -> impl Iterator<Item = &Vec<f64>> {
+        std::iter::once(&self.envelope).chain(std::iter::once(&self.psd)).chain(self.slices.iter())
     }
 
-    fn scale(&mut self, k: f64) {
-        for v in self.envelope.iter_mut().chain(self.psd.iter_mut()).chain(self.slices.iter_mut().flatten()) {
-            *v *= k;
+    /// The per-bin mean of the realisations (the first one's path correction), and for each
+    /// domain in comparison order the RMS over bins of the mean's standard error s/√K (s² the
+    /// per-bin sample variance; for the PSD, compared in dB, carried to dB by the delta method:
+    /// s_dB = 10/ln 10 · s / mean). With one realisation: that one, unchanged, and zeros.
+    fn mean_and_scatter(mut each: Vec<Self>) -> (Self, Vec<f64>) {
+        let k = each.len();
+        let rest = each.split_off(1.min(k));
+        let mut mean = each.pop().expect("compare_mean checks for at least one realisation");
+        let n_domains = mean.quantities().count();
+        if rest.is_empty() {
+            return (mean, vec![0.0; n_domains]);
         }
+        let kf = k as f64;
+        let per_realisation: Vec<Vec<&Vec<f64>>> = std::iter::once(&mean).chain(rest.iter()).map(|r| r.quantities().collect()).collect();
+        let mut means: Vec<Vec<f64>> = Vec::with_capacity(n_domains);
+        let mut scatter = Vec::with_capacity(n_domains);
+        for d in 0..n_domains {
+            let bins = per_realisation[0][d].len();
+            let (mut m, mut se2_sum) = (Vec::with_capacity(bins), 0.0);
+            for i in 0..bins {
+                let x = |r: &Vec<&Vec<f64>>| r[d].get(i).copied().unwrap_or(0.0);
+                let mu = per_realisation.iter().map(x).sum::<f64>() / kf;
+                let var = per_realisation.iter().map(|r| (x(r) - mu).powi(2)).sum::<f64>() / (kf - 1.0);
+                // The PSD (d = 1) is compared in dB.
+                let var = match d {
+                    1 if mu > 0.0 => (10.0 / std::f64::consts::LN_10).powi(2) * var / (mu * mu),
+                    1 => 0.0,
+                    _ => var,
+                };
+                se2_sum += var / kf;
+                m.push(mu);
+            }
+            scatter.push((se2_sum / bins.max(1) as f64).sqrt());
+            means.push(m);
+        }
+        let mut means = means.into_iter();
+        mean.envelope = means.next().unwrap_or_default();
+        mean.psd = means.next().unwrap_or_default();
+        for (s, m) in mean.slices.iter_mut().zip(means) {
+            *s = m;
+        }
+        (mean, scatter)
     }
 }
 
@@ -498,4 +575,31 @@ pub fn apply_gain_db(c: &mut Comparison, offset_db: f64, opts: &CompareOptions) 
 /// Compares `simulated` with `measured` in every domain.
 pub fn compare(measured: &Signal, simulated: &Signal, opts: &CompareOptions) -> Result<Comparison, CompareError> {
     Reference::new(measured, opts)?.compare(simulated)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn domains(envelope: [f64; 2], psd: [f64; 2], slice: [f64; 2]) -> SimulatedDomains {
+        SimulatedDomains { envelope: envelope.to_vec(), psd: psd.to_vec(), slices: vec![slice.to_vec()], path_correction: None }
+    }
+
+    #[test]
+    fn mean_and_scatter_of_hand_made_realisations() {
+        // Two realisations: per-bin means, and s² = Σ(x − x̄)²/(K − 1), standard error² s²/K.
+        let (m, se) = SimulatedDomains::mean_and_scatter(vec![domains([1.0, 3.0], [2.0, 4.0], [0.0, 10.0]), domains([3.0, 5.0], [2.0, 8.0], [0.0, 10.0])]);
+        assert_eq!((m.envelope, m.psd, m.slices), (vec![2.0, 4.0], vec![2.0, 6.0], vec![vec![0.0, 10.0]]));
+        // Envelope: s² = 2 in both bins, s²/K = 1, RMS 1.
+        assert!((se[0] - 1.0).abs() < 1e-15, "{se:?}");
+        // PSD, in dB by the delta method: bin 1 has no spread; bin 2 s² = 8, mean 6:
+        // (10/ln 10)² · 8 / 36 / 2, RMS over the two bins.
+        let c = 10.0 / std::f64::consts::LN_10;
+        assert!((se[1] - (c * c * 8.0 / 36.0 / 2.0 / 2.0).sqrt()).abs() < 1e-12, "{se:?}");
+        // Identical realisations: no scatter.
+        assert_eq!(se[2], 0.0);
+        // One realisation: itself, and zeros.
+        let (one, z) = SimulatedDomains::mean_and_scatter(vec![domains([1.0, 3.0], [2.0, 4.0], [5.0, 6.0])]);
+        assert_eq!((one.envelope, z), (vec![1.0, 3.0], vec![0.0; 3]));
+    }
 }
