@@ -460,6 +460,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     set(&mut h, "model realisations", 99.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);
     assert!(h.state().settings.loop_options(Default::default()).validate().is_ok());
+    // A stale stored value outside the range is passed on as it is and refused by the
+    // library's check, which names the field (the app shows that message, runs nothing).
+    h.state_mut().settings.loop_realisations = 0;
+    let e = h.state().settings.loop_options(Default::default()).validate().unwrap_err().to_string();
+    assert!(e.contains("realisations"), "{e}");
 }
 
 /// The model-loop view's history shows each round's seed floor next to its objective (what a

@@ -114,16 +114,18 @@ impl Settings {
         }
     }
 
-    /// The loop options from these settings, comparing with `compare` (the chain's band).
+    /// The loop options from these settings, comparing with `compare` (the chain's band), as
+    /// they are: [`LoopOptions::validate`] refuses a value out of range (a stale stored one),
+    /// naming it, before any work.
     pub fn loop_options(&self, compare: CompareOptions) -> LoopOptions {
         LoopOptions {
-            compare: CompareOptions { path_correction_bands: self.loop_path_correction_bands.min(crate::compare::MAX_PATH_CORRECTION_BANDS), ..compare },
+            compare: CompareOptions { path_correction_bands: self.loop_path_correction_bands, ..compare },
             fit_duration_s: self.loop_fit_duration_s,
             evaluations_per_parameter: self.loop_evaluations_per_parameter,
             sweeps: self.loop_sweeps,
             candidates: self.loop_candidates.clone(),
             unbend_pinned: self.loop_unbend_pinned,
-            realisations: self.loop_realisations.clamp(1, crate::compare::MAX_REALISATIONS),
+            realisations: self.loop_realisations,
             ..Default::default()
         }
     }
