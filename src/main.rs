@@ -221,8 +221,8 @@ struct SearchArgs {
     /// response) then compete only on what N bands cannot absorb.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_PATH_CORRECTION_BANDS as i64))]
     path_correction: u16,
-    /// The significance test: `floor_margin` (objective at least 1.5 × its seed floor; the
-    /// default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
+    /// The significance test: `floor_margin` (objective at least 1.5 × its seed floor with one
+    /// realisation, 1.87 × with several; the default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
     /// must account for the share: switching it off again in the trial's fit must cost it;
     /// experimental, not adopted: it made a false claim on a fresh pair the default does not).
     #[arg(long, value_name = "RULE", default_value = "floor_margin", value_parser = ["floor_margin", "scatter"])]
@@ -233,8 +233,10 @@ struct SearchArgs {
     fit_duration_s: f64,
     /// Model realisations (seeds) per evaluation, their spectra averaged before comparing, so
     /// random effects (slip, a rough fault, noise) are fitted to their expected spectra, not to
-    /// one draw (each evaluation costs K simulations, run in parallel; not the default: a
-    /// held-out pair made a false claim with 2, README "Detection limits").
+    /// one draw; with K ≥ 2 their mean's own scatter is taken out of the error, and the floor
+    /// ratio rises to 1.87 to ask for the same systematic misfit (each evaluation costs K
+    /// simulations, run in parallel; not the default: held-out pairs made false claims with
+    /// 2, README "Detection limits").
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().realisations as u16, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
     realisations: u16,
 }

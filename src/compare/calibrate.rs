@@ -302,7 +302,9 @@ pub struct LoopOptions {
     /// significant (see [`super::diagnose::decide`]). Default 0.2.
     pub significance: f64,
     /// How far above its seed floor the calibrated objective must be before any effect can be
-    /// missing: objective ≥ (1 + margin) × floor. Default 0.5.
+    /// missing: objective ≥ (1 + margin) × floor with one realisation; with several, the
+    /// ratio that asks for the same systematic distance over the model's scatter
+    /// ([`super::diagnose::floor_ratio_needed`]: 1.87 for 0.5). Default 0.5.
     pub floor_margin: f64,
     /// Effects the search may try; empty (the default): every applicable effect the model lacks.
     pub candidates: Vec<crate::model::EffectKind>,

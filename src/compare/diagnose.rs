@@ -304,8 +304,8 @@ pub fn objective_scatter(m: &Machine, reference: &Reference, j_own_seed: f64, op
 ///    cannot tell them apart, and the one whose signature carries most of the residual map's
 ///    error is put first;
 /// 3. that effect is significant when (a) the calibrated model is clearly above its floor
-///    (objective ≥ (1 + `floor_margin`) × floor: there is error a missing effect could
-///    explain), (b) it explains at least `significance` of the error above the floor, and (c)
+///    (objective ≥ [`floor_ratio_needed`] × floor, `1 + floor_margin` with one realisation:
+///    there is error a missing effect could explain), (b) it explains at least `significance` of the error above the floor, and (c)
 ///    its improvement exceeds 2√2 σ (it is not the luck of a seed). With
 ///    [`DecisionRule::Scatter`], (a) is instead objective − floor > 2√2 σ, and (d) switching
 ///    the effect off again in the trial's fit must cost at least `significance` too.
@@ -370,9 +370,28 @@ fn tie_width(scatter: f64) -> f64 {
 }
 
 /// Whether an objective is far enough above its seed floor for anything to be missing:
-/// `j ≥ (1 + floor_margin) × floor`.
+/// `j ≥ floor_ratio_needed(opts) × floor` (`1 + floor_margin` with one realisation).
 fn above_floor(j: f64, floor: f64, opts: &LoopOptions) -> bool {
-    j >= (1.0 + opts.floor_margin) * floor
+    j >= floor_ratio_needed(opts) * floor
+}
+
+/// The objective / floor ratio from which something can be missing. `floor_margin` m was set
+/// with one realisation (every stored table), whose objective and floor both hold the model's
+/// own scatter: per bin, floor² ≈ 2V and j² ≈ b² + 2V (V: a realisation's variance, the
+/// measurement's and the model's alike near the floor; b²: the squared distance between their
+/// expected spectra), so the ratio 1 + m asks for b² ≥ 2((1 + m)² − 1) V. With K ≥ 2
+/// realisations the mean's own scatter is taken out of both
+/// ([`DomainComparison::debiased_nrmse_percent`](crate::compare::DomainComparison::debiased_nrmse_percent)):
+/// floor² ≈ V, j² ≈ b² + V, and the same b²/V needs the ratio √(1 + 2((1 + m)² − 1)), 1.87
+/// for the default 0.5. Keeping 1 + m there would ask for a systematic distance 2.3 times
+/// smaller than with one realisation (README "Detection limits").
+pub fn floor_ratio_needed(opts: &LoopOptions) -> f64 {
+    let r1 = 1.0 + opts.floor_margin;
+    if opts.realisations <= 1 {
+        r1
+    } else {
+        (1.0 + 2.0 * (r1 * r1 - 1.0)).sqrt()
+    }
 }
 
 /// Calibrates the model, then tries every applicable effect it lacks (in parallel), and ranks
@@ -992,6 +1011,25 @@ mod tests {
         let (_, best, v) = decide(ts3, j0, floor, 3.0, &o);
         assert_eq!(best, None);
         assert!(v.contains("seed scatter"), "{v}");
+    }
+
+    #[test]
+    fn the_floor_ratio_asks_for_the_same_distance_over_the_scatter_whatever_k() {
+        let one = LoopOptions::default();
+        assert_eq!(floor_ratio_needed(&one), 1.5);
+        let two = LoopOptions { realisations: 2, ..Default::default() };
+        assert!((floor_ratio_needed(&two) - 3.5f64.sqrt()).abs() < 1e-12);
+        // b²/V at the threshold: j² / floor² − 1 with floor² = 2V (K = 1), V (K ≥ 2).
+        let b2_over_v = |r: f64, floor2_over_v: f64| (r * r - 1.0) * floor2_over_v;
+        assert!((b2_over_v(floor_ratio_needed(&one), 2.0) - b2_over_v(floor_ratio_needed(&two), 1.0)).abs() < 1e-12);
+        // At the threshold ratio of K = 2, a K = 2 diagnosis just below it finds nothing to
+        // explain; the same numbers with one realisation would.
+        let t = || vec![trial(EffectKind::Slip, 1.8, 1.0, 1.1, 50.0)];
+        let (_, best2, v2) = decide(t(), 1.8, 1.0, 0.01, &two);
+        assert_eq!(best2, None, "{v2}");
+        assert!(v2.contains("within its own scatter"), "{v2}");
+        let (_, best1, v1) = decide(t(), 1.8, 1.0, 0.01, &one);
+        assert_eq!(best1, Some(EffectKind::Slip), "{v1}");
     }
 
     #[test]
