@@ -341,7 +341,7 @@ impl Progress for CliProgress {
     fn model_evaluations(&self, input: &str, done: usize, expected: usize) {
         if let Some(b) = &self.bar {
             b.set_message(format!("{input}: model loop, evaluation {done}/{expected}"));
-        } else if !self.quiet && (done % 50 == 0 || done == expected) {
+        } else if !self.quiet && (done.is_multiple_of(50) || done == expected) {
             eprintln!("twinscope: {input}: model loop, evaluation {done}/{expected}");
         }
     }
@@ -631,7 +631,6 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
 #[allow(clippy::too_many_arguments)]
 fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;

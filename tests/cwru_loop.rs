@@ -3,6 +3,7 @@
 //! - 209 (inner race, 0.021 in): load_zone is ranked first and lowers the envelope NRMSE;
 //! - 130 (outer race at 6 o'clock, the centre of the load zone): no shaft-rate modulation is
 //!   claimed (load_zone is not chosen).
+//!
 //! (105, the 0.007 in inner race, does not reach "load_zone first": see README.) On 209,
 //! misalignment ties with load_zone on the objective; the residual-map evidence decides.
 

@@ -280,7 +280,7 @@ pub fn envelope_spectrum_for_compare(x: &[f64], fs_hz: f64, opts: &CompareOption
 
 fn envelope_filter(fs_hz: f64, opts: &CompareOptions) -> Result<Vec<f64>, CompareError> {
     let [lo, hi] = opts.envelope_band_hz;
-    let tw = (0.1 * (hi - lo)).min(200.0).max(1.0);
+    let tw = (0.1 * (hi - lo)).clamp(1.0, 200.0);
     let spec = BandpassSpec { pass_band_hz: [lo, hi], transition_low_hz: tw, transition_high_hz: tw, ..BandpassSpec::default() };
     Ok(dsp::remez::design_bandpass(&spec, fs_hz).map_err(dsp_err("envelope bandpass"))?.taps)
 }

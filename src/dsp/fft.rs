@@ -75,7 +75,7 @@ pub fn irfft(spec: &[Complex64], n: usize) -> Vec<f64> {
     let plan = c2r(n);
     let mut input = spec.to_vec();
     input[0].im = 0.0;
-    if n % 2 == 0 {
+    if n.is_multiple_of(2) {
         if let Some(last) = input.last_mut() {
             last.im = 0.0;
         }

@@ -32,7 +32,7 @@ pub fn resample(x: &[f64], fs_in_hz: f64, fs_out_hz: f64) -> Result<Vec<f64>, Ds
     // Nyquist handling as scipy: when the shorter length is even, its Nyquist bin is shared
     // between ±f; up-sampling halves it, down-sampling keeps the real part (the sum of both).
     let short = n.min(m);
-    if short % 2 == 0 {
+    if short.is_multiple_of(2) {
         let k = short / 2;
         if m > n {
             out[k] *= 0.5;

@@ -369,7 +369,7 @@ impl Machine {
             return Err(self.invalid("substeps", self.substeps, "must be in 1..=256"));
         }
         let samples = self.fs_hz * self.duration_s;
-        if samples < 16.0 || samples > 1e8 {
+        if !(16.0..=1e8).contains(&samples) {
             return Err(self.invalid("duration_s", self.duration_s, format!("gives {samples:.0} samples at fs_hz = {}; need 16 to 1e8", self.fs_hz)));
         }
         if self.shafts.is_empty() {

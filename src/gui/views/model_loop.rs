@@ -336,7 +336,7 @@ impl View for ModelLoopView {
         let measured = self.measured(session);
         let measured_list = session.measured_indices();
         let name = |i: usize| session.signals.get(i).map(|e| e.signal.name.clone()).unwrap_or_default();
-        let Some((_, draft)) = self.draft.as_mut() else { return None };
+        let (_, draft) = self.draft.as_mut()?;
         let valid = draft.validate();
         ui.horizontal(|ui| {
             egui::ComboBox::from_label("machine preset").selected_text(&model.preset).show_ui(ui, |ui| {
