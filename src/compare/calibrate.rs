@@ -332,10 +332,12 @@ pub struct LoopOptions {
     /// spectra are averaged over them before they are compared ([`Reference::compare_mean`]),
     /// so a random effect is fitted to its expected spectrum, not to one draw of it (against
     /// one draw the error holds the model's own scatter, which biases a random effect's fit
-    /// low; the bias falls as 1/K). Default 1: with 2 a hidden slip is found from 2 % up (one
-    /// draw: only at 3 %) and no single-effect table or CWRU verdict changed, but a held-out
-    /// pair (load_zone + misalignment) ended with a false claim it does not make with 1
-    /// (README "Detection limits").
+    /// low). With K ≥ 2 the mean's own scatter is taken out of the error
+    /// ([`crate::compare::DomainComparison::debiased_nrmse_percent`]) and the floor ratio rises
+    /// ([`super::diagnose::floor_ratio_needed`]). Default 1: with 2 a hidden slip is found from
+    /// 2 % up (one draw: only at 3 %) and no single-effect table or CWRU verdict changed, but
+    /// a held-out pair (speed_fluctuation + misalignment) ended with a false claim (slip) it
+    /// does not make with 1 (README "Detection limits").
     pub realisations: usize,
 }
 

@@ -263,7 +263,7 @@ pub fn seed_floor(m: &Machine, like: &Signal, against: &Comparison, opts: &LoopO
         let rmse = runs.iter().filter_map(|c| c.domain(&d.domain)).map(|x| x.debiased_rmse()).sum::<f64>() / n;
         d.metrics.rmse = rmse;
         d.scatter_rmse = 0.0;
-        d.metrics.nrmse_percent = if d.metrics.normaliser_value > 0.0 { 100.0 * rmse / d.metrics.normaliser_value } else { f64::NAN };
+        d.metrics.nrmse_percent = crate::compare::metrics::nrmse_percent(rmse, d.metrics.normaliser_value);
     }
     let domains = floor.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent)).collect();
     Ok((objective(&floor, &opts.weights), domains))

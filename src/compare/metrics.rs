@@ -131,6 +131,16 @@ pub fn xcorr_peak(a: &[f64], b: &[f64], max_lag: usize) -> (f64, i64) {
     best
 }
 
+/// NRMSE (%) of an RMSE for a normaliser value: `RMSE / |normaliser| × 100` (∞ for a zero
+/// normaliser). The one definition [`metrics`], the seed floor and the debiased error use.
+pub fn nrmse_percent(rmse: f64, normaliser_value: f64) -> f64 {
+    if normaliser_value.abs() > 0.0 {
+        rmse / normaliser_value.abs() * 100.0
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// All metrics of `simulated` against `measured` (equal lengths; the shorter length is used).
 pub fn metrics(measured: &[f64], simulated: &[f64], normaliser: Normaliser, max_lag: usize) -> Metrics {
     let n = measured.len().min(simulated.len());
@@ -143,7 +153,7 @@ pub fn metrics(measured: &[f64], simulated: &[f64], normaliser: Normaliser, max_
         xcorr_peak: xp,
         xcorr_lag: lag,
         rmse,
-        nrmse_percent: if nv.abs() > 0.0 { rmse / nv.abs() * 100.0 } else { f64::INFINITY },
+        nrmse_percent: nrmse_percent(rmse, nv),
         normaliser,
         normaliser_value: nv,
         points: n,

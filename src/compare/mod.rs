@@ -134,12 +134,7 @@ impl DomainComparison {
         if self.scatter_rmse == 0.0 {
             return self.metrics.nrmse_percent;
         }
-        let v = self.metrics.normaliser_value;
-        if v > 0.0 {
-            100.0 * self.debiased_rmse() / v
-        } else {
-            f64::NAN
-        }
+        metrics::nrmse_percent(self.debiased_rmse(), self.metrics.normaliser_value)
     }
 
     /// The RMSE with the simulated mean's own scatter taken out, `√max(RMSE² − scatter², 0)`
@@ -507,6 +502,9 @@ struct SimulatedDomains {
 }
 
 impl SimulatedDomains {
+    /// The PSD's place in [`Self::quantities`].
+    const PSD_INDEX: usize = 1;
+
     /// The quantities in the order of the comparison's domains: envelope, PSD (linear),
     /// slices.
     fn quantities(&self) -> impl Iterator<Item = &Vec<f64>> {
@@ -536,10 +534,10 @@ impl SimulatedDomains {
                 let x = |r: &Vec<&Vec<f64>>| r[d].get(i).copied().unwrap_or(0.0);
                 let mu = per_realisation.iter().map(x).sum::<f64>() / kf;
                 let var = per_realisation.iter().map(|r| (x(r) - mu).powi(2)).sum::<f64>() / (kf - 1.0);
-                // The PSD (d = 1) is compared in dB.
+                // The PSD is compared in dB.
                 let var = match d {
-                    1 if mu > 0.0 => (10.0 / std::f64::consts::LN_10).powi(2) * var / (mu * mu),
-                    1 => 0.0,
+                    Self::PSD_INDEX if mu > 0.0 => (10.0 / std::f64::consts::LN_10).powi(2) * var / (mu * mu),
+                    Self::PSD_INDEX => 0.0,
                     _ => var,
                 };
                 se2_sum += var / kf;
@@ -601,5 +599,19 @@ mod tests {
         // One realisation: itself, and zeros.
         let (one, z) = SimulatedDomains::mean_and_scatter(vec![domains([1.0, 3.0], [2.0, 4.0], [5.0, 6.0])]);
         assert_eq!((one.envelope, z), (vec![1.0, 3.0], vec![0.0; 3]));
+    }
+
+    #[test]
+    fn the_debiased_error_uses_the_metrics_normalisation() {
+        // A PSD in dB normalised by its mean has a negative normaliser: |normaliser|, as
+        // `metrics` does, not a missing domain.
+        let m = metrics(&[-10.0, -20.0], &[-12.0, -24.0], Normaliser::Mean, 0);
+        assert!(m.normaliser_value < 0.0);
+        let d = DomainComparison { domain: "psd_db".into(), quantity: String::new(), frequency_hz: vec![0.0, 1.0], measured: vec![], simulated: vec![], metrics: m.clone(), scatter_rmse: 1.0 };
+        let expected = (m.rmse.powi(2) - 1.0).sqrt() / 15.0 * 100.0;
+        assert!((d.debiased_nrmse_percent() - expected).abs() < 1e-12, "{} vs {expected}", d.debiased_nrmse_percent());
+        // Scatter above the error: 0, not NaN.
+        let big = DomainComparison { scatter_rmse: 10.0, ..d };
+        assert_eq!(big.debiased_nrmse_percent(), 0.0);
     }
 }
