@@ -233,8 +233,9 @@ struct SearchArgs {
     fit_duration_s: f64,
     /// Model realisations (seeds) per evaluation, their spectra averaged before comparing, so
     /// random effects (slip, a rough fault, noise) are fitted to their expected spectra, not to
-    /// one draw; with K ≥ 2 their mean's own scatter is taken out of the error, and the floor
-    /// ratio rises to 1.87 to ask for the same systematic misfit (each evaluation costs K
+    /// one draw; with K ≥ 2 their mean's own scatter is taken out of the error, the floor
+    /// ratio rises to 1.87 to ask for the same systematic misfit, and the calibrated model and
+    /// every trial are judged on K held-out realisations no fit used (each evaluation costs K
     /// simulations, run in parallel; not the default: held-out pairs made false claims with
     /// 2, README "Detection limits").
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().realisations as u16, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
@@ -573,6 +574,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             None => println!("  {} = {:.6}", p.name(), v),
         }
     }
+    if let Some(h) = compare::calibrate::fault_drop_limit_m(&final_m).filter(|_| !compare::calibrate::calibration_parameters(&final_m).contains(&compare::Param::FaultDepthM)) {
+        println!("  (fault depth not fitted: a ball drops at most {:.2} µm into this spall, below the {:.0} µm floor of the depth range, so every depth gives the same model)", h * 1e6, compare::Param::FaultDepthM.bounds(&final_m).0 * 1e6);
+    }
     if let Some(pc) = &last.path_correction {
         println!("  transfer-path correction of the calibrated model (dB at band centres): {pc}");
     }
@@ -589,14 +593,18 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     if last.floor_objective == 0.0 {
         println!("  note: {}", twinscope::compare::diagnose::ZERO_FLOOR_NOTE);
     }
+    if let Some(jh) = last.held_out_objective {
+        println!("  judged on held-out realisations: the calibrated model scores {jh:.2} there ({:.2} on the realisations it was fitted to); each trial's own fit in brackets", cal.objective_after);
+    }
     let n_tied = last.trials.iter().filter(|t| t.tied_with_best).count();
     for (i, t) in last.trials.iter().enumerate() {
         println!(
-            "{:>2}. {:<18} objective {:6.1} → {:6.1} ({:+4.0} %, explains {:4.0} % above the floor, switched off again {}){}  envelope NRMSE {:5.1} → {:5.1} %",
+            "{:>2}. {:<18} objective {:6.1} → {:6.1}{} ({:+4.0} %, explains {:4.0} % above the floor, switched off again {}){}  envelope NRMSE {:5.1} → {:5.1} %",
             i + 1,
             t.effect.name(),
             t.objective_before,
             t.objective_after,
+            t.objective_fitted.map_or(String::new(), |j| format!(" [{j:6.1}]")),
             -t.reduction * 100.0,
             t.explained * 100.0,
             t.effect_explained.map_or("–".to_string(), |e| format!("{:4.0} %", e * 100.0)),

@@ -528,3 +528,21 @@ fn model_loop_offers_a_replacement_when_stuck() {
     assert!(h3[2].objective.is_finite() && h3[2].ranking.iter().any(|x| x.0 == LoadZone), "the search ran: {:?}", h3[2]);
     assert!(h.query_by_label("misalignment in place of unbalance").is_some(), "the rounds table says what changed");
 }
+
+/// A search with several model realisations judged its trials on held-out realisations: the
+/// view says so, with both calibrated objectives, and the stuck test reads the held-out one.
+#[test]
+fn model_loop_says_when_trials_were_judged_on_held_out_realisations() {
+    use twinscope::compare::{Diagnosis, Fit, LoopOptions};
+    use twinscope::gui::session::LoopResult;
+    let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::LoadZone]);
+    let m = h.state().session.model.machine.clone();
+    let name = h.state().session.signals[0].signal.name.clone();
+    {
+        let model = &mut h.state_mut().session.model;
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, held_out_objective: Some(8.75), verdict: "nothing significant is missing".into(), ..Default::default() };
+        model.result = Some(LoopResult { measured: name, options: LoopOptions { realisations: 2, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0 });
+    }
+    h.run_steps(3);
+    assert!(h.query_by_label_contains("Judged on held-out realisations: the calibrated model scores 8.75 there (8.00 on the realisations it was fitted to)").is_some(), "the held-out judgement is shown");
+}

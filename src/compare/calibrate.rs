@@ -334,7 +334,8 @@ pub struct LoopOptions {
     /// one draw the error holds the model's own scatter, which biases a random effect's fit
     /// low). With K ≥ 2 the mean's own scatter is taken out of the error
     /// ([`crate::compare::DomainComparison::debiased_nrmse_percent`]) and the floor ratio rises
-    /// ([`super::diagnose::floor_ratio_needed`]). Default 1: with 2 a hidden slip is found from
+    /// ([`super::diagnose::floor_ratio_needed`]), and the calibrated model and every trial are
+    /// judged on held-out realisations ([`super::diagnose::HELD_OUT_SALT`]). Default 1: with 2 a hidden slip is found from
     /// 2 % up (one draw: only at 3 %) and no single-effect table or CWRU verdict changed, but
     /// a held-out pair (speed_fluctuation + misalignment) ended with a false claim (slip) it
     /// does not make with 1 (README "Detection limits").
@@ -745,11 +746,26 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
     ))
 }
 
+/// The deepest a ball's centre can drop into the first localised fault ([`Param::FaultDepthM`]'s
+/// fault), m: `r − √(r² − (L/2)²)` for a ball of radius r over a spall of length L, the
+/// curvature limit of the model's spall profile (`model::bearing::DepthProfile::Spall`;
+/// Sawalhi & Randall 2008). A fault deeper than this acts as this deep. None when the machine
+/// has no localised fault or its bearing geometry is unknown.
+pub fn fault_drop_limit_m(m: &Machine) -> Option<f64> {
+    let (i, f) = m.bearings.iter().enumerate().find_map(|(i, b)| b.fault.as_ref().map(|f| (i, f)))?;
+    let r = 0.5e-3 * m.bearing_geometry(i).ok()?.ball_diameter_mm;
+    let a = (0.5 * f.length_m).min(r);
+    Some(r - (r * r - a * a).sqrt())
+}
+
 /// The calibration parameters of the current model: resonance frequency and damping, fault
-/// severity, noise level (when the noise effect is on). The gain is always solved.
+/// severity, noise level (when the noise effect is on). The gain is always solved. The fault
+/// depth is left out when the ball cannot reach even the lowest depth of its range
+/// ([`fault_drop_limit_m`] below it): every depth of the range then gives the same model (on
+/// CWRU 105, a 0.178 mm spall under a 7.94 mm ball: a 1.0 µm drop against a 5 µm floor).
 pub fn calibration_parameters(m: &Machine) -> Vec<Param> {
     let mut v = vec![Param::ResonanceHz, Param::ResonanceDamping];
-    if m.bearings.iter().any(|b| b.fault.is_some()) {
+    if m.bearings.iter().any(|b| b.fault.is_some()) && fault_drop_limit_m(m).is_none_or(|h| h > Param::FaultDepthM.bounds(m).0) {
         v.push(Param::FaultDepthM);
     }
     if m.effects.noise.is_some() {
@@ -777,6 +793,27 @@ pub fn calibration_parameters_for(m: &Machine, opts: &LoopOptions) -> Vec<Param>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_fault_depth_the_ball_cannot_reach_is_not_calibrated() {
+        // CWRU 105: 0.178 mm spall, 7.94 mm ball: the centre drops (0.089 mm)² / (2 × 3.97 mm)
+        // ≈ 1.0 µm, under the 5 µm floor of the depth range: no depth in it changes the model.
+        let mut m = crate::model::preset("cwru_6205_inner").unwrap();
+        let h = fault_drop_limit_m(&m).unwrap();
+        assert!((h - 0.998e-6).abs() < 0.005e-6, "{h}");
+        assert!(!calibration_parameters(&m).contains(&Param::FaultDepthM));
+        // CWRU 209's 0.533 mm spall lets it drop 8.9 µm: the depth acts from 5 to 8.9 µm.
+        m.bearings[0].fault.as_mut().unwrap().length_m = 0.533e-3;
+        assert!((fault_drop_limit_m(&m).unwrap() - 8.95e-6).abs() < 0.05e-6);
+        assert!(calibration_parameters(&m).contains(&Param::FaultDepthM));
+        // The simulated record is the same for any depth above the drop limit.
+        m.bearings[0].fault.as_mut().unwrap().length_m = 0.178e-3;
+        m.duration_s = 0.2;
+        let a = crate::model::simulate(&m).unwrap();
+        Param::FaultDepthM.set(&mut m, 5e-6);
+        let b = crate::model::simulate(&m).unwrap();
+        assert_eq!(a.samples, b.samples);
+    }
 
     #[test]
     fn a_parameter_pinned_at_an_edge_of_its_range_is_flagged() {

@@ -64,6 +64,12 @@ pub struct EffectTrial {
     /// 276 % on a hidden 2.77 kHz mode).
     #[serde(default)]
     pub effect_explained: Option<f64>,
+    /// The objective the trial's fit reached on the realisations it was fitted to, when the
+    /// trial was then judged on held-out ones ([`HELD_OUT_SALT`]; with two or more
+    /// realisations): `objective_after` and every other number of the trial are then the
+    /// held-out ones. None with one realisation, where the trial is judged on its fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objective_fitted: Option<f64>,
 }
 
 /// What the CLI and the app print when a diagnosis's floor is 0: nothing in the model is
@@ -113,6 +119,20 @@ pub struct Diagnosis {
     /// (`CompareOptions::path_correction_bands`); `None` when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub path_correction: Option<crate::dsp::path_correction::PathCorrection>,
+    /// The calibrated model's objective on held-out realisations, against which the trials
+    /// were judged (with two or more realisations, see [`EffectTrial::objective_fitted`]);
+    /// None with one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub held_out_objective: Option<f64>,
+}
+
+impl Diagnosis {
+    /// The calibrated objective the decision used: on held-out realisations when the trials
+    /// were judged on them ([`Diagnosis::held_out_objective`]), else the calibration's own.
+    /// Compare trials' `objective_after` with this one, not with the calibration's.
+    pub fn judged_objective(&self) -> f64 {
+        self.held_out_objective.unwrap_or(self.calibration.objective_after)
+    }
 }
 
 /// Characteristic frequencies of a machine at its speed: shaft, bearing fault families of the
@@ -427,7 +447,8 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
             })
             .sum::<usize>()
             + opts.recalibrate_top.min(candidates.len()) * fit_trial_evaluations(m, &[], &cal_params, opts)
-            + candidates.len(),
+            + candidates.len()
+            + if opts.realisations >= 2 { 1 + candidates.len() } else { 0 },
     );
     let (cal_m, cal) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
     // A calibration that pinned a parameter may have bent it to stand in for the missing
@@ -487,10 +508,8 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
         let explained = if excess > 0.0 { (j0 - j) / excess } else { 0.0 };
         let (ev, ev_share) = evidence(k, &map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None });
-        let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
-        let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
-        let summary = format!("{ev}; adding {}{pv} changes envelope NRMSE from {env0:.1} % to {env:.1} % (objective {j0:.1} → {j:.1})", k.name());
-        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, summary, objective_without_effect: None, effect_explained: None }
+        let summary = trial_summary(k, &ev, parameter, &extra, (env0, env), (j0, j));
+        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None }
     };
     // Stage 1: every candidate, its own parameters fitted and the noise level re-fitted (a
     // transfer-path effect re-does the calibration with it, see [`recalibrates`]).
@@ -564,29 +583,99 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
     }
-    // Ablation: each fitted machine once more without its effect.
-    let trials: Vec<EffectTrial> = stage2
+    // With several realisations the trials are judged on realisations no fit has seen: the
+    // calibrated model and every fitted machine are evaluated once more under
+    // [`HELD_OUT_SALT`], and the decision, the shares and the ablation use those numbers.
+    // Fitting a random effect against the debiased objective otherwise finds the values
+    // where the subtracted scatter of its own realisations happens to be large (an
+    // optimiser's curse: README "Detection limits").
+    let held_out = if opts.realisations >= 2 {
+        let (ch, _) = evaluate(&reseeded(&cal_m, HELD_OUT_SALT), measured, opts)?;
+        progress.tick();
+        Some(ch)
+    } else {
+        None
+    };
+    let (j0, excess) = match &held_out {
+        Some(ch) => {
+            let j = objective(ch, &opts.weights);
+            (j, j - floor)
+        }
+        None => (j0, excess),
+    };
+    // Ablation: each fitted machine once more without its effect (on the held-out
+    // realisations when the trials are judged on them).
+    let trials: Vec<Result<EffectTrial, (EffectKind, String)>> = stage2
         .into_par_iter()
         .chain(rest)
         .map(|(mut t, fm)| {
-            let mut off = fm;
+            let judged = |m: &Machine| if held_out.is_some() { reseeded(m, HELD_OUT_SALT) } else { m.clone() };
+            if let Some(ch) = &held_out {
+                let ct = evaluate(&judged(&fm), measured, opts);
+                progress.tick();
+                let (ct, _) = ct.map_err(|e| (t.effect, format!("its fitted model could not be evaluated on the held-out realisations: {e}")))?;
+                rejudge(&mut t, ch, &ct, floor, &opts.weights);
+            }
+            let mut off = judged(&fm);
             off.effects.disable(t.effect);
             t.objective_without_effect = evaluate(&off, measured, opts).ok().map(|(c, _)| objective(&c, &opts.weights));
             progress.tick();
             t.effect_explained = t.objective_without_effect.filter(|_| excess > 0.0).map(|j| (j - t.objective_after) / excess);
-            t
+            Ok(t)
         })
         .collect();
+    let mut judged_trials = Vec::with_capacity(trials.len());
+    for t in trials {
+        match t {
+            Ok(t) => judged_trials.push(t),
+            Err(failed) => failed_trials.push(failed),
+        }
+    }
+    let trials = judged_trials;
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
     }
+    let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective }))
 }
 
 /// A stage-1 trial and its fitted machine, or why it could not be run.
 type TrialOutcome = Result<(EffectTrial, Machine), String>;
+
+/// Seed salt of the held-out realisations on which, with two or more realisations, the
+/// calibrated model and every trial are judged ([`Diagnosis::held_out_objective`]). With the
+/// realisations' own salts (`REALISATION_SALT + k` in [`evaluate`]) in the low bits, none of
+/// the held-out seeds is one a fit used.
+pub const HELD_OUT_SALT: u64 = 0x4E1D_0000_0000;
+
+/// The sentence of a trial: its evidence, the fitted values, and envelope NRMSE and objective
+/// before → after.
+fn trial_summary(k: EffectKind, evidence: &str, parameter: Option<(Param, f64)>, extra: &[(Param, f64)], env: (f64, f64), j: (f64, f64)) -> String {
+    let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
+    let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
+    format!("{evidence}; adding {}{pv} changes envelope NRMSE from {:.1} % to {:.1} % (objective {:.1} → {:.1})", k.name(), env.0, env.1, j.0, j.1)
+}
+
+/// Re-states a fitted trial on held-out realisations: `before` is the calibrated model's
+/// held-out comparison, `after` the trial's fitted machine's. The fit's own objective is kept
+/// in [`EffectTrial::objective_fitted`]; the objectives, envelope NRMSE, per-domain NRMSE, the
+/// reduction, the explained share (against `floor`) and the summary become the held-out
+/// ones. The ablation is the caller's.
+fn rejudge(t: &mut EffectTrial, before: &Comparison, after: &Comparison, floor: f64, weights: &[f64; 3]) {
+    let (j0, j) = (objective(before, weights), objective(after, weights));
+    let (env0, env) = (before.envelope_nrmse(), after.envelope_nrmse());
+    t.objective_fitted = Some(t.objective_after);
+    t.objective_before = j0;
+    t.objective_after = j;
+    t.envelope_nrmse_before = env0;
+    t.envelope_nrmse_after = env;
+    t.domains = before.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after.domain(&d.domain).map_or(f64::NAN, |x| x.metrics.nrmse_percent))).collect();
+    t.reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
+    t.explained = if j0 - floor > 0.0 { (j0 - j) / (j0 - floor) } else { 0.0 };
+    t.summary = trial_summary(t.effect, &t.evidence, t.parameter, &t.extra_parameters, (env0, env), (j0, j));
+}
 
 /// Whether the trial of `k` re-does the calibration with the effect on instead of starting
 /// from the calibrated model. A casing mode reshapes the transfer path — the spectrum the
@@ -645,7 +734,8 @@ pub struct Round {
     pub domains: Vec<(String, f64, f64)>,
     /// Envelope NRMSE after calibration, %.
     pub envelope_nrmse: f64,
-    /// Objective after calibration.
+    /// Objective after calibration: [`Diagnosis::judged_objective`], on held-out realisations
+    /// when the round's trials were judged on them.
     pub objective: f64,
     /// The seed floor of that objective (see [`seed_floor`]): objective / floor says whether
     /// anything is left to explain. 0 when not computed (a desktop-app round recorded from a
@@ -696,7 +786,7 @@ impl Round {
             effects_on,
             domains: d.domains.clone(),
             envelope_nrmse,
-            objective: d.calibration.objective_after,
+            objective: d.judged_objective(),
             floor_objective: d.floor_objective,
             objective_scatter: d.objective_scatter,
             verdict: d.verdict.clone(),
@@ -752,7 +842,7 @@ pub const REPLACEMENT_TRIALS: usize = 2;
 /// `(1 + floor_margin) ×` its seed floor, so something is missing that no single addition
 /// finds.
 fn stuck(d: &Diagnosis, opts: &LoopOptions) -> bool {
-    d.best.is_none() && d.floor_objective > 0.0 && above_floor(d.calibration.objective_after, d.floor_objective, opts)
+    d.best.is_none() && d.floor_objective > 0.0 && above_floor(d.judged_objective(), d.floor_objective, opts)
 }
 
 /// The replacements worth trying when the loop is stuck, best first, at most
@@ -891,7 +981,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
         }
         if r < rounds && stuck(&d, &opts) {
             let tie = tie_width(d.objective_scatter);
-            let stuck_reaches = reachable_objective(d.calibration.objective_after, &d.trials);
+            let stuck_reaches = reachable_objective(d.judged_objective(), &d.trials);
             let mut kept: Option<Replacement> = None;
             let mut tried: Vec<String> = Vec::new();
             // The stuck round applied nothing, so the history before it holds every candidate.
@@ -901,7 +991,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 o.refit_effects.retain(|k| *k != a);
                 o.refit_effects.push(b);
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
-                let v = reachable_objective(d2.calibration.objective_after, &d2.trials);
+                let v = reachable_objective(d2.judged_objective(), &d2.trials);
                 tried.push(format!("{} in place of {} reaches {v:.2}", b.name(), a.name()));
                 if v < stuck_reaches - tie && kept.as_ref().is_none_or(|k| v < k.reaches) {
                     kept = Some(Replacement { reaches: v, removed: a, added: b, machine: swapped, diagnosed: (cal2, d2), opts: o });
@@ -964,6 +1054,7 @@ mod tests {
             summary: String::new(),
             objective_without_effect: None,
             effect_explained: None,
+            objective_fitted: None,
         }
     }
 

@@ -143,7 +143,7 @@ impl ModelLoopView {
                 ui.label("transfer-path correction").on_hover_text("fit a smooth gain curve on this many log-spaced PSD bands to every evaluation before comparing (0 = off): for a real record whose sensor path the model does not describe; spectral-shape effects then compete only on what the bands cannot absorb");
                 ui.add(egui::DragValue::new(&mut s.loop_path_correction_bands).range(0..=crate::compare::MAX_PATH_CORRECTION_BANDS).suffix(" bands"));
                 ui.end_row();
-                let l = ui.label("model realisations").on_hover_text("average the spectra of this many model seeds in every evaluation, so a random effect (slip, a rough fault, noise) is fitted to its expected spectrum, not to one draw of it; each evaluation costs this many simulations, run in parallel");
+                let l = ui.label("model realisations").on_hover_text("average the spectra of this many model seeds in every evaluation, so a random effect (slip, a rough fault, noise) is fitted to its expected spectrum, not to one draw of it; with two or more, the trials are judged on as many held-out realisations no fit used; each evaluation costs this many simulations, run in parallel");
                 ui.add(egui::DragValue::new(&mut s.loop_realisations).range(1..=crate::compare::MAX_REALISATIONS)).labelled_by(l.id);
                 ui.end_row();
             });
@@ -233,6 +233,10 @@ impl ModelLoopView {
         if d.floor_objective == 0.0 {
             ui.add(egui::Label::new(RichText::new(format!("Note: {}", drawable(crate::compare::diagnose::ZERO_FLOOR_NOTE))).color(ui.visuals().warn_fg_color)).wrap());
         }
+        if let Some(jh) = d.held_out_objective {
+            ui.weak(format!("Judged on held-out realisations: the calibrated model scores {jh:.2} there ({:.2} on the realisations it was fitted to); the trials' numbers are held-out too", d.calibration.objective_after))
+                .on_hover_text("with several model realisations a fit can exploit its own realisations' scatter; every trial is therefore judged on realisations no fit used");
+        }
         let verdict = RichText::new(format!("Verdict: {}", drawable(&d.verdict)));
         ui.add(egui::Label::new(if d.best.is_some() { verdict.strong() } else { verdict }).wrap());
         let cal = &d.calibration;
@@ -249,9 +253,9 @@ impl ModelLoopView {
         let current = session.model.machine == r.started_from;
         let proposals = if current { crate::compare::diagnose::replacement_proposals(&session.model.history, &session.model.machine, d, &r.options) } else { Vec::new() };
         if !proposals.is_empty() {
-            let reach = crate::compare::diagnose::reachable_objective(cal.objective_after, &d.trials);
+            let reach = crate::compare::diagnose::reachable_objective(d.judged_objective(), &d.trials);
             ui.horizontal_wrapped(|ui| {
-                ui.label(format!("Stuck at {:.1} x the floor with nothing significant to add: an effect added earlier may stand in for another.", cal.objective_after / d.floor_objective));
+                ui.label(format!("Stuck at {:.1} x the floor with nothing significant to add: an effect added earlier may stand in for another.", d.judged_objective() / d.floor_objective));
                 for (a, b) in proposals {
                     let button = ui.add_enabled(measured.is_some(), egui::Button::new(format!("Try {} in place of {}", b.name(), a.name())));
                     let hover = format!(
