@@ -69,7 +69,13 @@ pub fn hide_effect(m: &mut Machine, k: EffectKind, rng: &mut impl rand::Rng) -> 
         EffectKind::GearMesh => (Param::MeshVariation, uniform(rng, 0.2, 0.5)),
         EffectKind::ToothFault => (Param::ToothLoss, uniform(rng, 0.3, 0.8)),
         EffectKind::SpeedFluctuation => (Param::SpeedFluctuationPercent, uniform(rng, 0.5, 2.0)),
-        EffectKind::SensorResponse => (Param::SensorBandwidthHz, uniform(rng, 0.12, 0.3) * m.fs_hz),
+        // Below the structural resonance, where the machine's signal is: a roll-off above it
+        // acts only on the band the measurement noise fills, and no comparison sees it (README
+        // "Detection limits": 2-4.5 kHz on the 1.3 kHz MFS rigs sat at the floor even at 20 dB).
+        EffectKind::SensorResponse => {
+            let resonance_hz = m.bearings.first().map_or(0.1 * m.fs_hz, |b| b.resonator_frequency_hz);
+            (Param::SensorBandwidthHz, (uniform(rng, 0.45, 0.75) * resonance_hz).max(Param::SensorBandwidthHz.bounds(m).0))
+        }
         EffectKind::Unbalance => (Param::UnbalanceKgM, 10f64.powf(uniform(rng, -3.7, -3.0))),
         EffectKind::Misalignment => (Param::Misalignment2xN, uniform(rng, 10.0, 50.0)),
         EffectKind::ExtendedFault => (Param::ExtendedFaultDepthM, uniform(rng, 5e-6, 20e-6)),
@@ -293,6 +299,22 @@ mod tests {
             removed,
             applied_values: applied.map(|(_, p, v)| vec![(p, v)]).unwrap_or_default(),
             ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_hidden_sensor_roll_off_is_drawn_below_the_resonance() {
+        // Above the resonance it acts only where the measurement noise is (README "Detection
+        // limits"): the draw is 0.45-0.75 x the (perturbed) resonance of the true machine.
+        for preset in ["mfs_inner", "mfs_healthy", "cwru_6205_inner"] {
+            let base = crate::model::preset(preset).unwrap();
+            for seed in 0..20 {
+                let (t, _, p, _) = make_case_hiding(&base, &[EffectKind::SensorResponse], seed);
+                let f_res = Param::ResonanceHz.get(&t).unwrap();
+                let bw = p[0].1;
+                assert_eq!(p[0].0, Param::SensorBandwidthHz);
+                assert!(bw >= 0.45 * f_res && bw <= 0.75 * f_res && bw >= Param::SensorBandwidthHz.bounds(&t).0, "{preset} seed {seed}: {bw} Hz against a {f_res} Hz resonance");
+            }
         }
     }
 
