@@ -335,10 +335,10 @@ pub struct LoopOptions {
     /// low). With K ≥ 2 the mean's own scatter is taken out of the error
     /// ([`crate::compare::DomainComparison::debiased_nrmse_percent`]) and the floor ratio rises
     /// ([`super::diagnose::floor_ratio_needed`]), and the calibrated model and every trial are
-    /// judged on held-out realisations ([`super::diagnose::HELD_OUT_SALT`]). Default 1: with 2 a hidden slip is found from
-    /// 2 % up (one draw: only at 3 %) and no single-effect table or CWRU verdict changed, but
-    /// a held-out pair (speed_fluctuation + misalignment) ended with a false claim (slip) it
-    /// does not make with 1 (README "Detection limits").
+    /// judged on held-out realisations ([`super::diagnose::HELD_OUT_SALT`]). Default 1: with 2
+    /// judged on the fit, a held-out pair (speed_fluctuation + misalignment) ended with a false
+    /// claim (slip); judged held out it does not, but the slip sweep then finds slip only from
+    /// 5 %, because the K = 2 fits overfit their own realisations (README "Detection limits").
     pub realisations: usize,
 }
 
