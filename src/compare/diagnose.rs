@@ -505,8 +505,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
             let (lo, hi, log) = p.bounds(fm);
             p.places_a_feature() && at_search_bound(v, lo, hi, log)
         });
-        let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
-        let explained = if excess > 0.0 { (j0 - j) / excess } else { 0.0 };
+        let (reduction, explained) = shares(j0, j, floor);
         let (ev, ev_share) = evidence(k, &map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None });
         let summary = trial_summary(k, &ev, parameter, &extra, (env0, env), (j0, j));
         EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None }
@@ -609,15 +608,15 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         .into_par_iter()
         .chain(rest)
         .map(|(mut t, fm)| {
-            let judged = |m: &Machine| if held_out.is_some() { reseeded(m, HELD_OUT_SALT) } else { m.clone() };
+            let mut judged = if held_out.is_some() { reseeded(&fm, HELD_OUT_SALT) } else { fm };
             if let Some(ch) = &held_out {
-                let ct = evaluate(&judged(&fm), measured, opts);
+                let ct = evaluate(&judged, measured, opts);
                 progress.tick();
                 let (ct, _) = ct.map_err(|e| (t.effect, format!("its fitted model could not be evaluated on the held-out realisations: {e}")))?;
                 rejudge(&mut t, ch, &ct, floor, &opts.weights);
             }
-            let mut off = judged(&fm);
-            off.effects.disable(t.effect);
+            judged.effects.disable(t.effect);
+            let off = judged;
             t.objective_without_effect = evaluate(&off, measured, opts).ok().map(|(c, _)| objective(&c, &opts.weights));
             progress.tick();
             t.effect_explained = t.objective_without_effect.filter(|_| excess > 0.0).map(|j| (j - t.objective_after) / excess);
@@ -650,6 +649,15 @@ type TrialOutcome = Result<(EffectTrial, Machine), String>;
 /// the held-out seeds is one a fit used.
 pub const HELD_OUT_SALT: u64 = 0x4E1D_0000_0000;
 
+/// A trial's relative reduction of the objective, `(j0 − j) / j0`, and the share of the error
+/// above the floor it explains, `(j0 − j) / (j0 − floor)` (0 where the denominator is not
+/// positive).
+fn shares(j0: f64, j: f64, floor: f64) -> (f64, f64) {
+    let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
+    let explained = if j0 - floor > 0.0 { (j0 - j) / (j0 - floor) } else { 0.0 };
+    (reduction, explained)
+}
+
 /// The sentence of a trial: its evidence, the fitted values, and envelope NRMSE and objective
 /// before → after.
 fn trial_summary(k: EffectKind, evidence: &str, parameter: Option<(Param, f64)>, extra: &[(Param, f64)], env: (f64, f64), j: (f64, f64)) -> String {
@@ -672,8 +680,7 @@ fn rejudge(t: &mut EffectTrial, before: &Comparison, after: &Comparison, floor: 
     t.envelope_nrmse_before = env0;
     t.envelope_nrmse_after = env;
     t.domains = before.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after.domain(&d.domain).map_or(f64::NAN, |x| x.metrics.nrmse_percent))).collect();
-    t.reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
-    t.explained = if j0 - floor > 0.0 { (j0 - j) / (j0 - floor) } else { 0.0 };
+    (t.reduction, t.explained) = shares(j0, j, floor);
     t.summary = trial_summary(t.effect, &t.evidence, t.parameter, &t.extra_parameters, (env0, env), (j0, j));
 }
 
