@@ -130,6 +130,25 @@ fn progress_counts_every_evaluation_and_cancel_stops_the_search() {
     assert!(calls.load(Ordering::SeqCst) <= 6, "{} evaluations after cancelling", calls.load(Ordering::SeqCst));
 }
 
+/// The noise trial fits the noise level over its full range; its local re-fit of the noise
+/// level (the refit every trial makes) is the same line search and is not made twice, nor
+/// counted twice in the progress total.
+#[test]
+fn a_noise_trial_expects_exactly_the_evaluations_it_makes() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let (mut m, measured, opts) = quick_case(13, vec![EffectKind::Noise]);
+    m.effects.disable(EffectKind::Noise);
+    let (calls, last_expected) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    let (_, d) = twinscope::compare::diagnose(&m, &measured, &opts, &|_, expected| {
+        calls.fetch_add(1, Ordering::SeqCst);
+        last_expected.store(expected, Ordering::SeqCst);
+        true
+    })
+    .unwrap();
+    assert_eq!(d.trials.len(), 1);
+    assert_eq!(calls.load(Ordering::SeqCst), last_expected.load(Ordering::SeqCst));
+}
+
 #[test]
 fn the_seed_floor_is_what_the_model_scores_against_itself() {
     // A "measurement" from the model itself (another seed): the calibrated objective is at the

@@ -636,7 +636,7 @@ pub fn fit_trial(m: &Machine, reference: &Reference, params: &[Param], refine: &
 
 /// Model evaluations [`fit_trial`] makes.
 pub fn fit_trial_evaluations(m: &Machine, params: &[Param], refine: &[Param], opts: &LoopOptions) -> usize {
-    fit_evaluations(m, params, &[], 1, opts) + refine.iter().filter(|p| p.get(m).is_some()).count() * refine_evaluations(opts)
+    fit_evaluations(m, params, &[], 1, opts) + refine.iter().filter(|p| p.get(m).is_some() && !params.contains(p)).count() * refine_evaluations(opts)
 }
 
 #[allow(clippy::too_many_arguments)]
