@@ -236,8 +236,9 @@ struct SearchArgs {
     /// one draw; with K ≥ 2 their mean's own scatter is taken out of the error, the floor
     /// ratio rises to 1.87 to ask for the same systematic misfit, and the calibrated model and
     /// every trial are judged on K held-out realisations no fit used (each evaluation costs K
-    /// simulations, run in parallel; not the default: with 2 the fits overfit their own
-    /// realisations, README "Detection limits").
+    /// simulations, run in parallel; not the default: with 2 a random effect's objective
+    /// scatters from draw to draw by half its own gain, so a 2 % slip is not found, README
+    /// "Detection limits").
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().realisations as u16, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
     realisations: u16,
 }
