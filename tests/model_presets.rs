@@ -149,6 +149,24 @@ fn cwru_presets_follow_the_data_center() {
     }
 }
 
+/// The `_021` presets (records 209, 234, 222) are their 0.007 in presets with the 0.021 in
+/// (0.533 mm) fault and nothing else changed; over it the 7.94 mm ball drops 9.0 µm (1.0 µm
+/// over 0.007 in).
+#[test]
+fn cwru_021_presets_differ_only_in_the_fault_size() {
+    for name in ["cwru_6205_inner", "cwru_6205_outer", "cwru_6205_ball"] {
+        let small = preset(name).unwrap();
+        let mut large = preset(&format!("{name}_021")).unwrap();
+        let f = large.bearings[0].fault.as_mut().unwrap();
+        assert!((f.length_m - 0.021 * 0.0254).abs() < 1e-6, "{name}_021: 0.021 in fault");
+        let drop_um = 1e6 * twinscope::compare::calibrate::fault_drop_limit_m(&large).unwrap();
+        assert!((drop_um - 9.0).abs() < 0.1, "{name}_021: {drop_um} µm");
+        large.bearings[0].fault.as_mut().unwrap().length_m = small.bearings[0].fault.as_ref().unwrap().length_m;
+        large.name = small.name.clone();
+        assert_eq!(large, small, "{name}_021");
+    }
+}
+
 /// The CWRU presets carry the 12 kHz recorder's anti-alias roll-off (fitted by
 /// `assets/machines/cwru_antialias.py` to the six 12k records, whose PSD falls 50–60 dB from
 /// 5.4 to 6 kHz): with white measurement noise the simulated PSD falls by as much, and by
