@@ -616,6 +616,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         if t.outside_band {
             println!("    {:<18} {}", "", twinscope::compare::diagnose::OUTSIDE_BAND_NOTE);
         }
+        if let Some(note) = t.pinned_note() {
+            println!("    {:<18} {note}", "");
+        }
     }
     for (k, why) in &last.failed_trials {
         println!("    {:<18} not ranked: its trial failed: {why}", k.name());

@@ -242,10 +242,22 @@ impl Param {
     /// Whether the parameter places a spectral feature in the analysed band (a casing mode's
     /// frequency, an accelerometer's roll-off). Fitted at an edge of its range (within 2 %, see
     /// [`at_search_bound`]), such a feature sits at or beyond the band's edge: the data do not
-    /// show it, and whatever the trial gains comes from something else. An amplitude at its
-    /// edge still says the effect is there, only stronger or weaker than the range allows.
+    /// show it, and whatever the trial gains comes from something else. A strength at its
+    /// edge is judged by [`Param::top_is_a_physical_limit`].
     pub fn places_a_feature(self) -> bool {
         matches!(self, Param::CasingModeHz | Param::SensorBandwidthHz)
+    }
+
+    /// Whether the top of this strength's range is where the model's physics ends: a path
+    /// modulation depth of 1 (full modulation), a tooth that carries nothing (loss 1), a mesh
+    /// stiffness variation of 0.8 (the model refuses 1, where the stiffness would vanish). A
+    /// fit there says the effect is at least that strong: the stored pair tables had true
+    /// finds at 0.99 and 0.988 path-modulation depth and 0.76 mesh variation. Every other
+    /// strength's top (a load, a force, an unbalance, a slip) bounds what is plausible on
+    /// these machines, and a fit there stands in for something else
+    /// ([`super::diagnose::EffectTrial::pinned`]).
+    pub fn top_is_a_physical_limit(self) -> bool {
+        matches!(self, Param::PathModulationDepth | Param::ToothLoss | Param::MeshVariation)
     }
 
     /// The main parameter of an effect (reported with the trial).

@@ -50,6 +50,17 @@ pub struct EffectTrial {
     /// trial is ranked after every other and cannot be chosen ([`OUTSIDE_BAND_NOTE`] says so).
     #[serde(default)]
     pub outside_band: bool,
+    /// The effect's main parameter is a strength (it places no feature) and was fitted at an
+    /// edge of its range, other than a top that is the physics' own limit
+    /// ([`Param::top_is_a_physical_limit`]): the effect is not estimated. At the top, the
+    /// effect needs more than is plausible and stands in for something else (on CWRU 234, with the 0.021 in
+    /// preset, an unbalance of 8.9e-3 kg·m, a 313 N rotating force on the rotor's 2 kg share,
+    /// took up a 1× envelope line as high as BPFO's); at the bottom, it is switched off in all
+    /// but name and the trial's re-fit did the work. Ranked and decided as
+    /// [`EffectTrial::outside_band`] ([`EffectTrial::pinned_note`]). The range `(low, high)` it is pinned
+    /// in, None when it is not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pinned: Option<(f64, f64)>,
     /// One sentence for the user.
     pub summary: String,
     /// The trial's fitted machine evaluated once more with the effect switched off, everything
@@ -79,6 +90,32 @@ pub const ZERO_FLOOR_NOTE: &str = "the model has nothing random in it (no noise,
 
 /// What the CLI and the app print under a trial that is [`EffectTrial::outside_band`].
 pub const OUTSIDE_BAND_NOTE: &str = "its feature was fitted at the edge of the band searched, outside what the data show: not a finding";
+
+
+impl EffectTrial {
+    /// Whether the trial is no finding whatever it explains: its feature lies outside the band
+    /// ([`EffectTrial::outside_band`]) or its strength is pinned at an edge of its range
+    /// ([`EffectTrial::pinned`]).
+    pub fn not_a_finding(&self) -> bool {
+        self.outside_band || self.pinned.is_some()
+    }
+
+    /// For a [`EffectTrial::pinned`] trial, whether its strength is pinned at the top of its
+    /// range (else at the bottom).
+    pub fn pinned_at_top(&self) -> Option<bool> {
+        let ((_, v), (lo, hi)) = (self.parameter?, self.pinned?);
+        Some(v > 0.5 * (lo + hi))
+    }
+
+    /// What the CLI and the app print under a [`EffectTrial::pinned`] trial.
+    pub fn pinned_note(&self) -> Option<&'static str> {
+        Some(if self.pinned_at_top()? {
+            "its strength was fitted at the top of its range: not an estimate; it stands in for something its range does not hold: not a finding"
+        } else {
+            "its strength was fitted at the bottom of its range: the effect is all but off, and what the trial explains its re-fit did: not a finding"
+        })
+    }
+}
 
 /// The answer of [`diagnose`].
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -333,11 +370,12 @@ pub fn objective_scatter(m: &Machine, reference: &Reference, j_own_seed: f64, op
 /// Otherwise the answer is "nothing significant is missing", with the reason.
 pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> (Vec<EffectTrial>, Option<EffectKind>, String) {
     trials.sort_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
-    // A feature fitted outside the band is no finding: after every other trial (stable).
-    trials.sort_by_key(|t| t.outside_band);
-    let n_in_band = trials.iter().filter(|t| !t.outside_band).count();
+    // A feature fitted outside the band, or a strength pinned at an edge of its range, is no
+    // finding: after every other trial (stable).
+    trials.sort_by_key(|t| t.not_a_finding());
+    let n_in_band = trials.iter().filter(|t| !t.not_a_finding()).count();
     let tie = tie_width(scatter);
-    if let Some(j_best) = trials.first().filter(|t| !t.outside_band).map(|t| t.objective_after) {
+    if let Some(j_best) = trials.first().filter(|t| !t.not_a_finding()).map(|t| t.objective_after) {
         for t in trials[..n_in_band].iter_mut() {
             t.tied_with_best = t.objective_after - j_best < tie;
         }
@@ -357,8 +395,19 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
         Some(format!("the calibrated model is within its own scatter: objective {j0:.2} against a floor of {floor:.2} (the model against realisations of itself)"))
     } else if first.outside_band {
         Some(format!("best trial: {} puts its feature at the edge of the band searched{}, outside what the data show", first.effect.name(), first.parameter.map_or(String::new(), |(p, v)| format!(" ({} = {v:.4e})", p.name()))))
+    } else if first.pinned.is_some() {
+        Some(format!("best trial: {}{}", first.effect.name(), pinned_clause(first)))
     } else if first.explained < opts.significance {
-        Some(format!("best trial: {} explains {:.0} % of the error above the floor, below the {:.0} % threshold", first.effect.name(), first.explained * 100.0, opts.significance * 100.0))
+        // A pinned trial that did better is named: the error it took up is real, its cause is
+        // not that effect within its range.
+        let pinned_better = trials[n_in_band..].iter().filter(|t| t.pinned.is_some() && t.objective_after < first.objective_after && t.explained >= opts.significance).min_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
+        Some(format!(
+            "best trial: {} explains {:.0} % of the error above the floor, below the {:.0} % threshold{}",
+            first.effect.name(),
+            first.explained * 100.0,
+            opts.significance * 100.0,
+            pinned_better.map_or(String::new(), |t| format!("; {}{}", t.effect.name(), pinned_clause(t)))
+        ))
     } else if improvement < tie {
         Some(format!("best trial: {} improves the objective by {improvement:.2}, within the seed scatter (±{tie:.2})", first.effect.name()))
     } else if opts.decision_rule == DecisionRule::Scatter && !first.effect_explained.is_some_and(|e| e >= opts.significance) {
@@ -381,6 +430,34 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
         }
         Some(r) => (trials, None, format!("nothing significant is missing ({r})")),
     }
+}
+
+/// Where a trial's main parameter `p = v` (fitted in `m`) sits against its range: a feature at
+/// an edge ([`EffectTrial::outside_band`]), or a strength pinned at an edge, with that range
+/// ([`EffectTrial::pinned`]; not at a top that is the physics' own limit,
+/// [`Param::top_is_a_physical_limit`]: the effect is at least that strong, a finding still).
+fn range_edge(p: Param, v: f64, m: &Machine) -> (bool, Option<(f64, f64)>) {
+    let (lo, hi, log) = p.bounds(m);
+    if !at_search_bound(v, lo, hi, log) {
+        return (false, None);
+    }
+    if p.places_a_feature() {
+        return (true, None);
+    }
+    let at_top = v > 0.5 * (lo + hi);
+    (false, (!(at_top && p.top_is_a_physical_limit())).then_some((lo, hi)))
+}
+
+/// "explains N % …, but only with its strength at the top of its range (…): not an estimate".
+fn pinned_clause(t: &EffectTrial) -> String {
+    let (Some((p, v)), Some((lo, hi)), Some(top)) = (t.parameter, t.pinned, t.pinned_at_top()) else { return String::new() };
+    format!(
+        " explains {:.0} % of the error above the floor, but only with {} = {v:.4e} at the {} of its range ({lo:.1e} – {hi:.1e}): not an estimate{}",
+        t.explained * 100.0,
+        p.name(),
+        if top { "top" } else { "bottom" },
+        if top { "; it stands in for something its range does not hold" } else { "; the trial's re-fit did the work" }
+    )
 }
 
 /// Objectives closer than this to each other are tied: `2√2 σ`, the spread of a difference of
@@ -501,14 +578,11 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after(&d.domain))).collect();
         let parameter = Param::main_of_effect(k).and_then(|p| p.get(fm).map(|v| (p, v)));
         let extra: Vec<(Param, f64)> = Param::of_effect(k).iter().chain(released.iter()).filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(fm).map(|v| (*p, v))).collect();
-        let outside_band = parameter.is_some_and(|(p, v)| {
-            let (lo, hi, log) = p.bounds(fm);
-            p.places_a_feature() && at_search_bound(v, lo, hi, log)
-        });
+        let (outside_band, pinned) = parameter.map_or((false, None), |(p, v)| range_edge(p, v, fm));
         let (reduction, explained) = shares(j0, j, floor);
         let (ev, ev_share) = evidence(k, &map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None });
         let summary = trial_summary(k, &ev, parameter, &extra, (env0, env), (j0, j));
-        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None }
+        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None }
     };
     // Stage 1: every candidate, its own parameters fitted and the noise level re-fitted (a
     // transfer-path effect re-does the calibration with it, see [`recalibrates`]).
@@ -1058,6 +1132,7 @@ mod tests {
             evidence_share,
             tied_with_best: false,
             outside_band: false,
+            pinned: None,
             summary: String::new(),
             objective_without_effect: None,
             effect_explained: None,
@@ -1083,6 +1158,48 @@ mod tests {
         let (_, best, v) = decide(vec![casing], j0, floor, 0.05, &o);
         assert_eq!(best, None);
         assert!(v.contains("edge of the band") && v.contains("frequency_hz = 7.3470e3"), "{v}");
+    }
+
+    #[test]
+    fn a_strength_pinned_at_an_edge_of_its_range_is_ranked_last_and_named_in_the_verdict() {
+        // CWRU 234 with the 0.021 in preset: the unbalance trial took the top of its range.
+        let o = LoopOptions::default();
+        let (j0, floor) = (29.3, 4.16);
+        let mut unbalance = trial(EffectKind::Unbalance, j0, floor, 22.8, 37.0);
+        unbalance.parameter = Some((Param::UnbalanceKgM, 8.86e-3));
+        unbalance.pinned = Some((1e-6, 1e-2));
+        assert!(unbalance.pinned_note().unwrap().contains("at the top of its range"));
+        let ts = vec![unbalance.clone(), trial(EffectKind::Misalignment, j0, floor, 25.5, 37.0), trial(EffectKind::PathModulation, j0, floor, 26.0, 20.0)];
+        let (r, best, v) = decide(ts, j0, floor, 0.2, &o);
+        assert_eq!(r.iter().map(|t| t.effect).collect::<Vec<_>>(), vec![EffectKind::Misalignment, EffectKind::PathModulation, EffectKind::Unbalance]);
+        assert_eq!(best, None, "{v}");
+        assert!(v.contains("misalignment explains 15 %") && v.contains("unbalance explains 26 %") && v.contains("8.8600e-3 at the top of its range"), "{v}");
+        // A finding below it is still chosen when it explains enough on its own.
+        let ts = vec![unbalance.clone(), trial(EffectKind::Misalignment, j0, floor, 23.0, 37.0)];
+        assert_eq!(decide(ts, j0, floor, 0.2, &o).1, Some(EffectKind::Misalignment));
+        // Alone, and at the bottom of its range: the re-fit did the work.
+        unbalance.parameter = Some((Param::UnbalanceKgM, 1.1e-6));
+        assert!(unbalance.pinned_note().unwrap().contains("at the bottom of its range"));
+        let (_, best, v) = decide(vec![unbalance], j0, floor, 0.2, &o);
+        assert_eq!(best, None);
+        assert!(v.contains("at the bottom of its range") && v.contains("re-fit did the work"), "{v}");
+    }
+
+    #[test]
+    fn a_strength_is_pinned_at_an_edge_unless_its_range_ends_where_the_physics_does() {
+        let m = crate::model::preset("mfs_inner").unwrap();
+        // CWRU 234's unbalance; a slip at the top; a load zone at the bottom.
+        assert_eq!(range_edge(Param::UnbalanceKgM, 8.86e-3, &m), (false, Some((1e-6, 1e-2))));
+        assert_eq!(range_edge(Param::SlipPercent, 7.9, &m), (false, Some((0.2, 8.0))));
+        assert_eq!(range_edge(Param::RadialLoadN, 2.05, &m), (false, Some((2.0, 5000.0))));
+        // The stored pairs' true finds at the top of a physical range stay findings.
+        assert_eq!(range_edge(Param::PathModulationDepth, 0.988, &m), (false, None));
+        assert_eq!(range_edge(Param::MeshVariation, 0.76, &m), (false, None));
+        // At the bottom of such a range the effect is off: pinned.
+        assert_eq!(range_edge(Param::PathModulationDepth, 0.06, &m), (false, Some((0.05, 1.0))));
+        // Inside the range nothing; a feature at an edge is outside the band.
+        assert_eq!(range_edge(Param::UnbalanceKgM, 3e-4, &m), (false, None));
+        assert_eq!(range_edge(Param::CasingModeHz, 0.449 * m.fs_hz, &m), (true, None));
     }
 
     #[test]
