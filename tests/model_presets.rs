@@ -157,7 +157,7 @@ fn cwru_021_presets_differ_only_in_the_fault_size() {
     for name in ["cwru_6205_inner", "cwru_6205_outer", "cwru_6205_ball"] {
         let small = preset(name).unwrap();
         let mut large = preset(&format!("{name}_021")).unwrap();
-        let f = large.bearings[0].fault.as_mut().unwrap();
+        let f = large.bearings[0].fault.as_ref().unwrap();
         assert!((f.length_m - 0.021 * 0.0254).abs() < 1e-6, "{name}_021: 0.021 in fault");
         let drop_um = 1e6 * twinscope::compare::calibrate::fault_drop_limit_m(&large).unwrap();
         assert!((drop_um - 9.0).abs() < 0.1, "{name}_021: {drop_um} µm");

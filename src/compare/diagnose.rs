@@ -53,12 +53,12 @@ pub struct EffectTrial {
     /// The effect's main parameter is a strength (it places no feature) and was fitted at an
     /// edge of its range, other than a top that is the physics' own limit
     /// ([`Param::top_is_a_physical_limit`]): the effect is not estimated. At the top, the
-    /// effect needs more than is plausible and stands in for something else (on CWRU 234, with the 0.021 in
-    /// preset, an unbalance of 8.9e-3 kg·m, a 313 N rotating force on the rotor's 2 kg share,
-    /// took up a 1× envelope line as high as BPFO's); at the bottom, it is switched off in all
-    /// but name and the trial's re-fit did the work. Ranked and decided as
-    /// [`EffectTrial::outside_band`] ([`EffectTrial::pinned_note`]). The range `(low, high)` it is pinned
-    /// in, None when it is not.
+    /// effect needs more than is plausible and stands in for something else (on CWRU 234,
+    /// with the 0.021 in preset, an unbalance of 8.9e-3 kg·m, a 313 N rotating force on the
+    /// rotor's 2 kg share, took up a 1× envelope line as high as BPFO's); at the bottom, it is
+    /// switched off in all but name and the trial's re-fit did the work. Ranked and decided
+    /// as [`EffectTrial::outside_band`] ([`EffectTrial::pinned_note`]). The range
+    /// `(low, high)` it is pinned in; None when it is not.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pinned: Option<(f64, f64)>,
     /// One sentence for the user.
@@ -91,7 +91,6 @@ pub const ZERO_FLOOR_NOTE: &str = "the model has nothing random in it (no noise,
 /// What the CLI and the app print under a trial that is [`EffectTrial::outside_band`].
 pub const OUTSIDE_BAND_NOTE: &str = "its feature was fitted at the edge of the band searched, outside what the data show: not a finding";
 
-
 impl EffectTrial {
     /// Whether the trial is no finding whatever it explains: its feature lies outside the band
     /// ([`EffectTrial::outside_band`]) or its strength is pinned at an edge of its range
@@ -104,7 +103,7 @@ impl EffectTrial {
     /// range (else at the bottom).
     pub fn pinned_at_top(&self) -> Option<bool> {
         let ((_, v), (lo, hi)) = (self.parameter?, self.pinned?);
-        Some(v > 0.5 * (lo + hi))
+        Some(in_upper_half(v, lo, hi))
     }
 
     /// What the CLI and the app print under a [`EffectTrial::pinned`] trial.
@@ -444,8 +443,13 @@ fn range_edge(p: Param, v: f64, m: &Machine) -> (bool, Option<(f64, f64)>) {
     if p.places_a_feature() {
         return (true, None);
     }
-    let at_top = v > 0.5 * (lo + hi);
-    (false, (!(at_top && p.top_is_a_physical_limit())).then_some((lo, hi)))
+    (false, (!(in_upper_half(v, lo, hi) && p.top_is_a_physical_limit())).then_some((lo, hi)))
+}
+
+/// Which edge a value pinned within 2 % of one ([`at_search_bound`]) is at: the top when it is
+/// above the middle of the range.
+fn in_upper_half(v: f64, lo: f64, hi: f64) -> bool {
+    v > 0.5 * (lo + hi)
 }
 
 /// "explains N % …, but only with its strength at the top of its range (…): not an estimate".
