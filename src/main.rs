@@ -613,10 +613,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             t.envelope_nrmse_before,
             t.envelope_nrmse_after
         );
-        if t.outside_band {
-            println!("    {:<18} {}", "", twinscope::compare::diagnose::OUTSIDE_BAND_NOTE);
-        }
-        if let Some(note) = t.pinned_note() {
+        if let Some(note) = t.not_a_finding_note() {
             println!("    {:<18} {note}", "");
         }
     }

@@ -106,7 +106,17 @@ impl EffectTrial {
         Some(in_upper_half(v, lo, hi))
     }
 
-    /// What the CLI and the app print under a [`EffectTrial::pinned`] trial.
+    /// What the CLI and the app print under a trial that is no finding
+    /// ([`EffectTrial::not_a_finding`]): [`OUTSIDE_BAND_NOTE`] or [`EffectTrial::pinned_note`].
+    pub fn not_a_finding_note(&self) -> Option<&'static str> {
+        if self.outside_band {
+            Some(OUTSIDE_BAND_NOTE)
+        } else {
+            self.pinned_note()
+        }
+    }
+
+    /// The note of a [`EffectTrial::pinned`] trial: pinned at the top or at the bottom.
     pub fn pinned_note(&self) -> Option<&'static str> {
         Some(if self.pinned_at_top()? {
             "its strength was fitted at the top of its range: not an estimate; it stands in for something its range does not hold: not a finding"
@@ -354,8 +364,9 @@ pub fn objective_scatter(m: &Machine, reference: &Reference, j_own_seed: f64, op
 }
 
 /// The decision, from the trials' objectives and the noise around them:
-/// 1. rank by objective after the trial (best first), except that a trial whose feature was
-///    fitted at the edge of its band ([`EffectTrial::outside_band`]) goes after every other;
+/// 1. rank by objective after the trial (best first), except that a trial that is no finding
+///    ([`EffectTrial::not_a_finding`]: its feature fitted at the edge of its band, or its
+///    strength pinned at an edge of its range) goes after every other;
 /// 2. trials within the seed scatter of the best (difference < 2√2 σ) are tied: the data
 ///    cannot tell them apart, and the one whose signature carries most of the residual map's
 ///    error is put first;
@@ -372,10 +383,10 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
     // A feature fitted outside the band, or a strength pinned at an edge of its range, is no
     // finding: after every other trial (stable).
     trials.sort_by_key(|t| t.not_a_finding());
-    let n_in_band = trials.iter().filter(|t| !t.not_a_finding()).count();
+    let n_findings = trials.iter().filter(|t| !t.not_a_finding()).count();
     let tie = tie_width(scatter);
     if let Some(j_best) = trials.first().filter(|t| !t.not_a_finding()).map(|t| t.objective_after) {
-        for t in trials[..n_in_band].iter_mut() {
+        for t in trials[..n_findings].iter_mut() {
             t.tied_with_best = t.objective_after - j_best < tie;
         }
         let n_tied = trials.iter().filter(|t| t.tied_with_best).count();
@@ -399,7 +410,7 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
     } else if first.explained < opts.significance {
         // A pinned trial that did better is named: the error it took up is real, its cause is
         // not that effect within its range.
-        let pinned_better = trials[n_in_band..].iter().filter(|t| t.pinned.is_some() && t.objective_after < first.objective_after && t.explained >= opts.significance).min_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
+        let pinned_better = trials[n_findings..].iter().filter(|t| t.pinned.is_some() && t.objective_after < first.objective_after && t.explained >= opts.significance).min_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
         Some(format!(
             "best trial: {} explains {:.0} % of the error above the floor, below the {:.0} % threshold{}",
             first.effect.name(),
@@ -1153,6 +1164,7 @@ mod tests {
         let mut casing = trial(EffectKind::CasingModes, j0, floor, 7.99, 1.0);
         casing.parameter = Some((Param::CasingModeHz, 7347.0));
         casing.outside_band = true;
+        assert_eq!(casing.not_a_finding_note(), Some(OUTSIDE_BAND_NOTE));
         let ts = vec![casing.clone(), trial(EffectKind::ExtendedFault, j0, floor, 9.19, 30.0), trial(EffectKind::Misalignment, j0, floor, 11.79, 10.0)];
         let (r, best, v) = decide(ts, j0, floor, 0.05, &o);
         assert_eq!(best, Some(EffectKind::ExtendedFault), "{v}");
@@ -1173,6 +1185,7 @@ mod tests {
         unbalance.parameter = Some((Param::UnbalanceKgM, 8.86e-3));
         unbalance.pinned = Some((1e-6, 1e-2));
         assert!(unbalance.pinned_note().unwrap().contains("at the top of its range"));
+        assert_eq!(unbalance.not_a_finding_note(), unbalance.pinned_note());
         let ts = vec![unbalance.clone(), trial(EffectKind::Misalignment, j0, floor, 25.5, 37.0), trial(EffectKind::PathModulation, j0, floor, 26.0, 20.0)];
         let (r, best, v) = decide(ts, j0, floor, 0.2, &o);
         assert_eq!(r.iter().map(|t| t.effect).collect::<Vec<_>>(), vec![EffectKind::Misalignment, EffectKind::PathModulation, EffectKind::Unbalance]);

@@ -319,13 +319,7 @@ impl ModelLoopView {
                 let fitted: Vec<String> = t.parameter.iter().chain(t.extra_parameters.iter()).map(|(p, v)| format!("{} = {} {}", p.name(), fmt_num(*v), unit_of(p.name())).trim_end().to_string()).collect();
                 let fitted = if fitted.is_empty() { "a switch".to_string() } else { fitted.join(", ") };
                 let itself = t.effect_explained.map_or(String::new(), |e| format!("; switching it off again in the fitted model costs {:.0} %", e * 100.0));
-                let edge = if t.outside_band {
-                    format!("; {}", crate::compare::diagnose::OUTSIDE_BAND_NOTE)
-                } else if let Some(note) = t.pinned_note() {
-                    format!("; {note}")
-                } else {
-                    String::new()
-                };
+                let edge = t.not_a_finding_note().map_or(String::new(), |note| format!("; {note}"));
                 ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
             }
         });
