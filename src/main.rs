@@ -705,16 +705,19 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         Ok(())
     };
     if !cases.is_empty() {
-        println!("| hidden | true parameter | SNR dB | objective / floor | chosen | rank of hidden | hidden explains (% above floor) | envelope NRMSE before → after (%) | s |");
-        println!("|---|---|---:|---:|---|---:|---:|---|---:|");
+        println!("| hidden | true parameter | SNR dB | objective / floor | chosen | rank of hidden | hidden explains (% above floor) | envelope NRMSE before → after (%) | calibrated objective / true machine's (envelope NRMSE %) / without the hidden | recoverable | hidden's trial recovers (%) | s |");
+        println!("|---|---|---:|---:|---|---:|---:|---|---|---|---:|---:|");
     }
     for (h, value, case_seed) in &cases {
         let r = hidden::run_case_set(&base, *h, *case_seed, duration_s, &hidden::CaseSetting { value: *value, ..setting }, &opts)?;
         let tp = r.true_parameter.map(|pv| effect_values_text(&[pv])).unwrap_or_else(|| "-".into());
-        let calibrated = r.trials.first().map_or(f64::NAN, |t| t.objective_before);
-        let explains = h.and_then(|k| r.trials.iter().find(|t| t.effect == k)).map_or("-".to_string(), |t| format!("{:.0}", t.explained * 100.0));
+        let calibrated = r.calibrated_objective();
+        let explains = r.hidden_trial().map_or("-".to_string(), |t| format!("{:.0}", t.explained * 100.0));
+        let (truth, truth_sd) = r.oracle.truth_objective();
+        let oracle = format!("{calibrated:.2} / {truth:.2} ± {truth_sd:.2} ({:.1}) / {}", r.oracle.truth_envelope_nrmse(), r.oracle.without_hidden_objective().map_or("-".into(), |w| format!("{w:.2}")));
+        let recovers = r.hidden_trial().map(|t| r.oracle.recovered(calibrated, t.objective_after)).filter(|x| x.is_finite()).map_or("-".to_string(), |x| format!("{:.0}", x * 100.0));
         println!(
-            "| {} | {} | {:.1} | {:.2} | {} | {} | {} | {:.1} → {:.1} | {:.0} |",
+            "| {} | {} | {:.1} | {:.2} | {} | {} | {} | {:.1} → {:.1} | {} | {} | {} | {:.0} |",
             h.map(|k| k.name()).unwrap_or("(control)"),
             tp,
             r.snr_db,
@@ -724,6 +727,9 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             explains,
             r.envelope_nrmse_before,
             r.envelope_nrmse_after,
+            oracle,
+            r.oracle.reading(calibrated).unwrap_or("-"),
+            recovers,
             r.seconds
         );
         results.push(r);
@@ -733,12 +739,20 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         let hits = results.iter().filter(|r| r.hidden.is_some() && r.chosen == r.hidden).count();
         let ok_controls = results.iter().filter(|r| r.hidden.is_none() && r.chosen.is_none()).count();
         println!("\nhidden effect ranked first and chosen: {hits}/{}; controls answered nothing significant: {ok_controls}/{controls}", cases.len() - controls);
+        let recoverable: Vec<&hidden::CaseResult> = results.iter().filter(|r| r.recoverable()).collect();
+        let found = recoverable.iter().filter(|r| r.chosen == r.hidden).count();
+        let halved = recoverable.iter().filter(|r| r.chosen == r.hidden && r.envelope_nrmse_after <= 0.5 * r.envelope_nrmse_before).count();
+        let truth_cannot = recoverable.iter().filter(|r| r.chosen == r.hidden && r.envelope_nrmse_after > 0.5 * r.envelope_nrmse_before && r.oracle.truth_envelope_nrmse() > 0.5 * r.envelope_nrmse_before).count();
+        println!(
+            "recoverable (the true machine, re-seeded, beats the calibrated model, and without its hidden effect it does not): {}; of those found: {found}, with envelope NRMSE at least halved: {halved}, not halved where the true machine itself stays above half: {truth_cannot}",
+            recoverable.len()
+        );
     }
     if groups.is_empty() {
         return Ok(());
     }
-    println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims | missed (rank, explains in the last round) | applied, as fitted at the end |");
-    println!("|---|---|---:|---|---|---|---|---|");
+    println!("\n| hidden | true parameters | SNR dB | each round: envelope NRMSE % (objective / floor) → effect applied | all found | false claims | missed (rank, explains in the last round) | applied, as fitted at the end | last round's objective / true machine's (envelope NRMSE %) / without the hidden |");
+    println!("|---|---|---:|---|---|---|---|---|---|");
     for (j, g) in groups.iter().enumerate() {
         let r = hidden::run_multi_case_set(&base, g, seed + (cases.len() + j) as u64, duration_s, rounds.unwrap_or(g.len() + 2), &setting, &opts)?;
         let names = |ks: &[EffectKind]| ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(" + ");
@@ -749,7 +763,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             None => format!("{} (not tried)", k.name()),
         }).collect::<Vec<_>>().join(", ");
         println!(
-            "| {} | {} | {:.1} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {:.1} | {} | {} | {} | {} | {} | {} |",
             names(&r.hidden),
             if tp.is_empty() { "-".into() } else { tp },
             r.snr_db,
@@ -757,7 +771,12 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             if r.found_all { "yes" } else { "no" },
             if r.false_claims.is_empty() { "none".into() } else { names(&r.false_claims) },
             if missed.is_empty() { "-".into() } else { missed },
-            if r.final_values.is_empty() { "-".into() } else { effect_values_text(&r.final_values) }
+            if r.final_values.is_empty() { "-".into() } else { effect_values_text(&r.final_values) },
+            {
+                let (truth, sd) = r.oracle.truth_objective();
+                let last = r.history.last().map_or(f64::NAN, |h| h.objective);
+                format!("{last:.2} / {truth:.2} ± {sd:.2} ({:.1}) / {}", r.oracle.truth_envelope_nrmse(), r.oracle.without_hidden_objective().map_or("-".into(), |w| format!("{w:.2}")))
+            }
         );
         multi.push(r);
         write_json(&results, &multi)?;

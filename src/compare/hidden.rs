@@ -4,8 +4,9 @@
 //! rank it first; with two, the loop must find and apply both, one per round, and then answer
 //! "nothing significant is missing"; with nothing hidden it must answer that at once.
 
-use super::calibrate::{LoopError, LoopOptions, Param};
-use super::diagnose::{diagnose, run_loop, Round};
+use super::calibrate::{evaluate, objective, LoopError, LoopOptions, Param};
+use super::diagnose::{diagnose_with, run_loop, Round};
+use super::Reference;
 use crate::model::{self, EffectKind, Machine};
 use crate::signal::synth;
 use rand::RngExt;
@@ -49,8 +50,148 @@ pub struct CaseResult {
     pub pinned: Vec<Param>,
     #[serde(default)]
     pub unbent: bool,
+    /// What the true machine itself scores against the measurement ([`oracle`]).
+    #[serde(default)]
+    pub oracle: Oracle,
     /// Wall time, s.
     pub seconds: f64,
+}
+
+/// Seeds of the true machine's re-runs behind [`Oracle`] (salted into the truth's own seed;
+/// none is the measurement's).
+const ORACLE_SALTS: [u64; 4] = [0x0AC1_E001, 0x0AC1_E002, 0x0AC1_E003, 0x0AC1_E004];
+
+/// What only a hidden-effect case can know: the true machine, re-run with other seeds (its
+/// noise, slip and roughness drawn anew), scored against the measurement in the search's own
+/// objective; and the same seeds with the hidden effects switched off. Together they say
+/// whether any model could have done better than the calibrated one, and whether the hidden
+/// effect is what it would take: a case is *recoverable* only when both hold.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Oracle {
+    /// (objective, envelope NRMSE %) of the true machine, one per seed.
+    pub truth: Vec<(f64, f64)>,
+    /// The same with the hidden effects switched off, seed for seed (empty for a control).
+    pub without_hidden: Vec<(f64, f64)>,
+}
+
+fn mean_sd(x: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
+    let n = x.clone().count();
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let mean = x.clone().sum::<f64>() / n as f64;
+    let sd = if n > 1 { (x.map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt() } else { 0.0 };
+    (mean, sd)
+}
+
+impl Oracle {
+    /// Mean and standard deviation of the true machine's objective over the seeds.
+    pub fn truth_objective(&self) -> (f64, f64) {
+        mean_sd(self.truth.iter().map(|t| t.0))
+    }
+
+    /// Mean envelope NRMSE (%) of the true machine: the lowest a perfect model can expect.
+    pub fn truth_envelope_nrmse(&self) -> f64 {
+        mean_sd(self.truth.iter().map(|t| t.1)).0
+    }
+
+    /// Mean objective of the true machine without the hidden effects (None for a control).
+    pub fn without_hidden_objective(&self) -> Option<f64> {
+        (!self.without_hidden.is_empty()).then(|| mean_sd(self.without_hidden.iter().map(|t| t.0)).0)
+    }
+
+    /// Whether switching the hidden effects off costs the true machine objective beyond its
+    /// scatter: the mean of the paired differences (without − with, seed for seed) above twice
+    /// its standard error. None for a control.
+    pub fn hidden_is_visible(&self) -> Option<bool> {
+        if self.without_hidden.is_empty() || self.without_hidden.len() != self.truth.len() {
+            return None;
+        }
+        let (mean, sd) = mean_sd(self.without_hidden.iter().zip(&self.truth).map(|(w, t)| w.0 - t.0));
+        Some(mean > 2.0 * sd / (self.truth.len() as f64).sqrt())
+    }
+
+    /// Whether a model scoring `calibrated` is measurably worse than the true machine: above
+    /// its mean by more than twice its seed-to-seed standard deviation.
+    pub fn has_headroom(&self, calibrated: f64) -> bool {
+        let (mean, sd) = self.truth_objective();
+        calibrated - mean > 2.0 * sd
+    }
+
+    /// Whether a search could find the hidden effect at all: the calibrated model is worse
+    /// than the truth ([`Self::has_headroom`]) and the hidden effect carries the difference
+    /// ([`Self::hidden_is_visible`]). False for a control.
+    pub fn recoverable(&self, calibrated: f64) -> bool {
+        self.hidden_is_visible() == Some(true) && self.has_headroom(calibrated)
+    }
+
+    /// Why a case is or is not recoverable (None for a control): "yes"; "absorbed" (the
+    /// hidden effect costs the truth objective, but the calibrated model already scores like
+    /// the truth: its re-fitted parameters stand in for the effect); "invisible" (the hidden
+    /// effect changes nothing the objective sees at this SNR); "invisible, the calibration
+    /// falls short" (worse than the truth, but not for want of the hidden effect).
+    pub fn reading(&self, calibrated: f64) -> Option<&'static str> {
+        Some(match (self.hidden_is_visible()?, self.has_headroom(calibrated)) {
+            (true, true) => "yes",
+            (true, false) => "absorbed",
+            (false, false) => "invisible",
+            (false, true) => "invisible, the calibration falls short",
+        })
+    }
+
+    /// The share of the calibrated model's excess over the true machine that a model scoring
+    /// `after` recovers: `(calibrated − after) / (calibrated − truth)` (NaN without excess).
+    pub fn recovered(&self, calibrated: f64, after: f64) -> f64 {
+        let excess = calibrated - self.truth_objective().0;
+        if excess > 0.0 {
+            (calibrated - after) / excess
+        } else {
+            f64::NAN
+        }
+    }
+}
+
+/// Scores the true machine `truth`, re-run with the [`ORACLE_SALTS`] seeds, against the
+/// measurement, with and without the `hidden` effects (see [`Oracle`]). Eight evaluations,
+/// in parallel.
+pub fn oracle(truth: &Machine, hidden: &[EffectKind], reference: &Reference, opts: &LoopOptions) -> Result<Oracle, LoopError> {
+    use rayon::prelude::*;
+    let mut without = truth.clone();
+    for k in hidden {
+        without.effects.disable(*k);
+    }
+    let runs: Vec<(bool, u64)> = ORACLE_SALTS.iter().map(|s| (false, *s)).chain(ORACLE_SALTS.iter().filter(|_| !hidden.is_empty()).map(|s| (true, *s))).collect();
+    let scores = runs
+        .par_iter()
+        .map(|(off, salt)| {
+            let mut m = if *off { without.clone() } else { truth.clone() };
+            m.seed = truth.seed ^ salt;
+            let (c, _) = evaluate(&m, reference, opts)?;
+            Ok((*off, (objective(&c, &opts.weights), c.envelope_nrmse())))
+        })
+        .collect::<Result<Vec<_>, LoopError>>()?;
+    Ok(Oracle {
+        truth: scores.iter().filter(|s| !s.0).map(|s| s.1).collect(),
+        without_hidden: scores.iter().filter(|s| s.0).map(|s| s.1).collect(),
+    })
+}
+
+impl CaseResult {
+    /// The calibrated model's objective as the trials were judged against it (on held-out
+    /// realisations with several).
+    pub fn calibrated_objective(&self) -> f64 {
+        self.trials.first().map_or(f64::NAN, |t| t.objective_before)
+    }
+
+    /// The hidden effect's trial, if it was tried.
+    pub fn hidden_trial(&self) -> Option<&super::diagnose::EffectTrial> {
+        self.hidden.and_then(|k| self.trials.iter().find(|t| t.effect == k))
+    }
+
+    /// [`Oracle::recoverable`] for this case's calibrated model.
+    pub fn recoverable(&self) -> bool {
+        self.oracle.recoverable(self.calibrated_objective())
+    }
 }
 
 fn uniform(r: &mut impl rand::Rng, lo: f64, hi: f64) -> f64 {
@@ -179,7 +320,9 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
     let true_parameter = true_parameters.first().copied();
     truth.duration_s = duration_s;
     let measured = model::simulate(&truth)?;
-    let (_, d) = diagnose(&model_m, &measured, opts, &|_, _| true)?;
+    let reference = Reference::new(&measured, &opts.compare)?;
+    let (_, d) = diagnose_with(&model_m, &reference, opts, &super::calibrate::LoopProgress::new(&|_, _| true))?;
+    let oracle = oracle(&truth, hidden.as_slice(), &reference, opts)?;
     let ranking: Vec<EffectKind> = d.trials.iter().map(|t| t.effect).collect();
     let rank_of_hidden = hidden.and_then(|k| ranking.iter().position(|x| *x == k).map(|i| i + 1));
     // The trials' own "before" (on the held-out realisations when they were judged on them;
@@ -202,6 +345,7 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
         trials: d.trials.clone(),
         pinned: d.calibration.pinned(),
         unbent: d.unbent,
+        oracle,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }
@@ -232,6 +376,10 @@ pub struct MultiCaseResult {
     /// them, or as applied for an effect the last round put in.
     #[serde(default)]
     pub final_values: Vec<(Param, f64)>,
+    /// The true machine against the measurement, with and without all hidden effects
+    /// ([`oracle`]): how close the last round came to what any model could reach.
+    #[serde(default)]
+    pub oracle: Oracle,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -249,6 +397,7 @@ pub fn run_multi_case_set(base: &Machine, hidden: &[EffectKind], seed: u64, dura
     truth.duration_s = duration_s;
     let measured = model::simulate(&truth)?;
     let (_, history, last) = run_loop(&model_m, &measured, rounds, opts, &|_, _| true)?;
+    let oracle = oracle(&truth, hidden, &Reference::new(&measured, &opts.compare)?, opts)?;
     let applied = super::diagnose::applied_effects(&history);
     let final_values = final_effect_values(&history, &last.calibration.parameters);
     let last_ranking = history.last().map(|r| r.ranking.as_slice()).unwrap_or_default();
@@ -264,6 +413,7 @@ pub fn run_multi_case_set(base: &Machine, hidden: &[EffectKind], seed: u64, dura
         applied,
         history,
         final_values,
+        oracle,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }
@@ -299,6 +449,61 @@ mod tests {
             removed,
             applied_values: applied.map(|(_, p, v)| vec![(p, v)]).unwrap_or_default(),
             ..Default::default()
+        }
+    }
+
+    fn oracle_of(truth: &[f64], without: &[f64]) -> Oracle {
+        Oracle { truth: truth.iter().map(|j| (*j, 1.0)).collect(), without_hidden: without.iter().map(|j| (*j, 2.0)).collect() }
+    }
+
+    #[test]
+    fn the_oracle_reads_visibility_from_paired_seeds_and_headroom_from_the_truths_scatter() {
+        // Without the hidden effect the truth scores 3 higher on every seed: visible.
+        let o = oracle_of(&[3.0, 3.2, 2.8, 3.0], &[6.1, 6.2, 5.8, 5.9]);
+        let (mean, sd) = o.truth_objective();
+        assert!((mean - 3.0).abs() < 1e-12 && (sd - (0.08f64 / 3.0).sqrt()).abs() < 1e-12, "{mean} {sd}");
+        assert_eq!(o.hidden_is_visible(), Some(true));
+        assert_eq!(o.truth_envelope_nrmse(), 1.0);
+        assert_eq!(o.without_hidden_objective(), Some(6.0));
+        // The calibrated model at 5: worse than the truth beyond 2 sd (0.33): recoverable.
+        assert!(o.recoverable(5.0));
+        assert_eq!(o.reading(5.0), Some("yes"));
+        assert!((o.recovered(5.0, 4.0) - 0.5).abs() < 1e-12);
+        // At 3.2 the calibration has absorbed what the effect does.
+        assert!(!o.recoverable(3.2));
+        assert_eq!(o.reading(3.2), Some("absorbed"));
+        assert!(o.recovered(2.9, 2.5).is_nan());
+        // Paired differences that scatter about zero: invisible, whatever the calibrated score.
+        let flat = oracle_of(&[3.0, 3.2, 2.8, 3.0], &[3.4, 2.9, 2.7, 3.1]);
+        assert_eq!(flat.hidden_is_visible(), Some(false));
+        assert_eq!(flat.reading(5.0), Some("invisible, the calibration falls short"));
+        assert_eq!(flat.reading(3.0), Some("invisible"));
+        assert!(!flat.recoverable(5.0));
+        // The slip case of the bearing table (seed 2101, one realisation): the truth re-seeded
+        // scores worse than without its slip. Not visible.
+        assert_eq!(oracle_of(&[3.50, 4.51, 4.64, 3.74], &[3.38, 3.45, 3.40, 3.41]).hidden_is_visible(), Some(false));
+        // A control hides nothing: no reading, never recoverable.
+        let control = oracle_of(&[3.0, 3.1], &[]);
+        assert_eq!(control.hidden_is_visible(), None);
+        assert_eq!(control.reading(9.0), None);
+        assert!(!control.recoverable(9.0));
+    }
+
+    #[test]
+    fn the_oracle_sees_a_hidden_load_zone_and_nothing_hidden_in_a_control() {
+        let base = crate::model::preset("cwru_6205_inner").unwrap();
+        let opts = LoopOptions::default();
+        for (hidden, visible) in [(vec![EffectKind::LoadZone], Some(true)), (vec![], None)] {
+            let (mut truth, ..) = make_case_hiding(&base, &hidden, 7);
+            truth.duration_s = 2.0;
+            let reference = Reference::new(&model::simulate(&truth).unwrap(), &opts.compare).unwrap();
+            let o = oracle(&truth, &hidden, &reference, &opts).unwrap();
+            assert_eq!(o.truth.len(), ORACLE_SALTS.len());
+            assert_eq!(o.without_hidden.len(), if hidden.is_empty() { 0 } else { ORACLE_SALTS.len() });
+            assert_eq!(o.hidden_is_visible(), visible, "{hidden:?}: {o:?}");
+            // Re-seeded, the truth scores like the floor: a few per cent, not the measurement's
+            // own seed (which would score 0).
+            assert!(o.truth.iter().all(|t| t.0 > 0.1 && t.0 < 20.0), "{o:?}");
         }
     }
 
