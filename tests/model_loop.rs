@@ -156,19 +156,19 @@ fn diagnose_counting(m: &model::Machine, measured: &twinscope::signal::Signal, o
 }
 
 #[test]
-fn a_sensor_roll_off_trial_recalibrates_and_expects_exactly_the_evaluations_it_makes() {
-    // The roll-off's trial re-does the calibration with it (like a casing mode's), its
-    // bandwidth scanned on a grid first: 2n points instead of a line search's n. A load
-    // zone's trial beside it starts from the calibrated model.
+fn a_casing_trial_scans_recalibrates_and_expects_exactly_the_evaluations_it_makes() {
+    // The casing mode's trial re-does the calibration with it, its frequency scanned on a grid
+    // first; a load zone's trial beside it starts from the calibrated model. The progress
+    // total counts both exactly.
     use twinscope::compare::diagnose::recalibrates;
-    let (m, measured, opts) = quick_case(14, vec![EffectKind::SensorResponse, EffectKind::LoadZone]);
-    assert!(recalibrates(EffectKind::SensorResponse) && !recalibrates(EffectKind::LoadZone));
+    let (m, measured, opts) = quick_case(14, vec![EffectKind::CasingModes, EffectKind::LoadZone]);
+    assert!(recalibrates(EffectKind::CasingModes) && !recalibrates(EffectKind::LoadZone) && !recalibrates(EffectKind::SensorResponse));
     let (d, calls, expected) = diagnose_counting(&m, &measured, &opts);
     assert!(!d.unbent, "the calibration pinned {:?}: every trial would start twice", d.calibration.at_bound);
     assert_eq!(d.trials.len(), 2);
     assert_eq!(calls, expected);
-    // The roll-off's fit re-fitted the calibration's parameters too (reported with it).
-    let t = d.trials.iter().find(|t| t.effect == EffectKind::SensorResponse).unwrap();
+    // The mode's fit re-fitted the calibration's parameters too (reported with it).
+    let t = d.trials.iter().find(|t| t.effect == EffectKind::CasingModes).unwrap();
     assert!(t.extra_parameters.iter().any(|(p, _)| *p == Param::ResonanceHz), "{:?}", t.extra_parameters);
 }
 

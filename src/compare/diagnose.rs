@@ -548,9 +548,9 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     // A calibration that pinned a parameter may have bent it to stand in for the missing
     // effect; with `unbend_pinned` every trial then starts from the uncalibrated values.
     let unbent = opts.unbend_pinned && !cal.at_bound.is_empty();
-    // The start of a trial that re-does the calibration with its effect (the casing and
-    // sensor trials always; every trial when unbent): the round's uncalibrated machine with
-    // the effect on, its main parameter scanned on a grid.
+    // The start of a trial that re-does the calibration with its effect (the casing trial
+    // always; every trial when unbent): the round's uncalibrated machine with the effect on,
+    // its main parameter scanned on a grid.
     let unbent_start = |k: EffectKind| -> (Machine, Vec<Param>, Vec<Param>) {
         let mut t = m.clone();
         t.effects.enable(k);
@@ -776,17 +776,16 @@ fn rejudge(t: &mut EffectTrial, before: &Comparison, after: &Comparison, floor: 
 }
 
 /// Whether the trial of `k` re-does the calibration with the effect on instead of starting
-/// from the calibrated model. A casing mode or a sensor roll-off reshapes the transfer path —
-/// the spectrum the resonance, damping and fault depth were calibrated on — so calibration
-/// without it bends them to imitate the effect (on a hidden 3.2 kHz mode: the resonance 13 %
-/// low, the fault depth at its lower bound; on a hidden 811 Hz roll-off: the damping doubled),
-/// and the effect added to that bent model only makes it worse or lands where the bent model
-/// leaves room (the roll-off fitted at 1304 Hz, on the resonance, recovering half of what the
-/// true 811 Hz would). Its trial therefore starts from the model's own values and fits the
-/// effect's frequency (grid scan, then golden section), then every calibration parameter
-/// over its full range (one sweep).
+/// from the calibrated model. A casing mode reshapes the transfer path — the spectrum the
+/// resonance, damping and fault depth were calibrated on — so calibration without it bends
+/// them to imitate the mode (on a hidden 3.2 kHz mode: the resonance 13 % low, the fault depth
+/// at its lower bound), and a mode added to that bent model only makes it worse. Its trial
+/// therefore starts from the model's own values and fits the mode frequency (grid scan, then
+/// golden section), then every calibration parameter over its full range (one sweep). (The
+/// sensor roll-off, fitted the same way, found a hidden 811 Hz roll-off better but cost a
+/// seen pair its casing find: README "The true machine as a yardstick".)
 pub fn recalibrates(k: EffectKind) -> bool {
-    matches!(k, EffectKind::CasingModes | EffectKind::SensorResponse)
+    k == EffectKind::CasingModes
 }
 
 /// The parameters a re-calibrating trial fits, in order: the effect's, then the calibration's.
