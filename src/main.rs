@@ -641,6 +641,14 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
 }
 
 #[allow(clippy::too_many_arguments)]
+/// The yardstick's table cell: a model's objective / the true machine's mean ± sd (its
+/// envelope NRMSE %) / the true machine's without the hidden effects.
+fn oracle_cell(o: &twinscope::compare::hidden::Oracle, model_objective: f64) -> String {
+    let (truth, sd) = o.truth_objective();
+    let without = o.without_hidden_objective().map_or("-".into(), |w| format!("{w:.2}"));
+    format!("{model_objective:.2} / {truth:.2} ± {sd:.2} ({:.1}) / {without}", o.truth_envelope_nrmse())
+}
+
 fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;
@@ -713,8 +721,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         let tp = r.true_parameter.map(|pv| effect_values_text(&[pv])).unwrap_or_else(|| "-".into());
         let calibrated = r.calibrated_objective();
         let explains = r.hidden_trial().map_or("-".to_string(), |t| format!("{:.0}", t.explained * 100.0));
-        let (truth, truth_sd) = r.oracle.truth_objective();
-        let oracle = format!("{calibrated:.2} / {truth:.2} ± {truth_sd:.2} ({:.1}) / {}", r.oracle.truth_envelope_nrmse(), r.oracle.without_hidden_objective().map_or("-".into(), |w| format!("{w:.2}")));
+        let oracle = oracle_cell(&r.oracle, calibrated);
         let recovers = r.hidden_trial().map(|t| r.oracle.recovered(calibrated, t.objective_after)).filter(|x| x.is_finite()).map_or("-".to_string(), |x| format!("{:.0}", x * 100.0));
         println!(
             "| {} | {} | {:.1} | {:.2} | {} | {} | {} | {:.1} → {:.1} | {} | {} | {} | {:.0} |",
@@ -772,11 +779,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             if r.false_claims.is_empty() { "none".into() } else { names(&r.false_claims) },
             if missed.is_empty() { "-".into() } else { missed },
             if r.final_values.is_empty() { "-".into() } else { effect_values_text(&r.final_values) },
-            {
-                let (truth, sd) = r.oracle.truth_objective();
-                let last = r.history.last().map_or(f64::NAN, |h| h.objective);
-                format!("{last:.2} / {truth:.2} ± {sd:.2} ({:.1}) / {}", r.oracle.truth_envelope_nrmse(), r.oracle.without_hidden_objective().map_or("-".into(), |w| format!("{w:.2}")))
-            }
+            oracle_cell(&r.oracle, r.history.last().map_or(f64::NAN, |h| h.objective))
         );
         multi.push(r);
         write_json(&results, &multi)?;

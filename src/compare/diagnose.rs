@@ -532,9 +532,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
                 let mut t = m.clone();
                 t.effects.enable(*k);
                 if recalibrates(*k) {
-                    // Its main parameter is scanned on a grid (see `unbent_start`).
-                    let scan: Vec<Param> = Param::main_of_effect(*k).into_iter().collect();
-                    fit_evaluations(&t, &recalibration_parameters(*k, &t, opts), &scan, 1, opts)
+                    fit_evaluations(&t, &recalibration_parameters(*k, &t, opts), &[], 1, opts)
                 } else {
                     fit_trial_evaluations(&t, &Param::of_effect(*k), &TRIAL_REFINE, opts)
                 }
