@@ -118,11 +118,17 @@ impl EffectTrial {
 
     /// The note of a [`EffectTrial::pinned`] trial: pinned at the top or at the bottom.
     pub fn pinned_note(&self) -> Option<&'static str> {
-        Some(if self.pinned_at_top()? {
-            "its strength was fitted at the top of its range: not an estimate; it stands in for something its range does not hold: not a finding"
-        } else {
-            "its strength was fitted at the bottom of its range: the effect is all but off, and what the trial explains its re-fit did: not a finding"
-        })
+        Some(pinned_note_at(self.pinned_at_top()?))
+    }
+}
+
+/// What the CLI and the app print under a strength pinned at the top (`true`) or the bottom of
+/// its range.
+fn pinned_note_at(top: bool) -> &'static str {
+    if top {
+        "its strength was fitted at the top of its range: not an estimate; it stands in for something its range does not hold: not a finding"
+    } else {
+        "its strength was fitted at the bottom of its range: the effect is all but off, and what the trial explains its re-fit did: not a finding"
     }
 }
 
@@ -928,6 +934,21 @@ pub fn effect_values_text(values: &[(Param, f64)]) -> String {
     values.iter().map(|(p, v)| format!("{} = {v:.3e}", p.name().rsplit('.').next().unwrap_or(""))).collect::<Vec<_>>().join(", ")
 }
 
+/// Whether effect `k`, as fitted in `m`, is no finding by the rule for trials ([`range_edge`]:
+/// its feature at the edge of the band, or its strength pinned at an edge of its range); the
+/// note to print when it is not. The loop keeps no replacement whose added effect the
+/// calibration fitted so ([`run_loop`]): a runner-up's trial is not checked, since the swapped
+/// model's calibration fits the effect again and may place it well where the trial did not.
+pub fn fitted_not_a_finding(k: EffectKind, m: &Machine) -> Option<&'static str> {
+    let p = Param::main_of_effect(k)?;
+    let v = p.get(m)?;
+    match range_edge(p, v, m) {
+        (true, _) => Some(OUTSIDE_BAND_NOTE),
+        (false, Some((lo, hi))) => Some(pinned_note_at(in_upper_half(v, lo, hi))),
+        (false, None) => None,
+    }
+}
+
 /// A diagnosis's ranking as kept in a [`Round`]: (effect, objective after, explained share).
 pub fn ranking_of(d: &Diagnosis) -> Vec<(EffectKind, f64, f64)> {
     d.trials.iter().map(|t| (t.effect, t.objective_after, t.explained)).collect()
@@ -1041,8 +1062,9 @@ struct Replacement {
 /// calibration) gets a full diagnosis. The replacement is kept if what it reaches with its best
 /// one addition is below what the stuck model reaches with its own best one addition
 /// ([`reachable_objective`]: significant or not) by more than the seed scatter (`2√2 σ`, as
-/// ties in [`decide`]); the round records it (`removed`, `applied`) and
-/// the next round starts from that diagnosis.
+/// ties in [`decide`]), and if the calibration did not fit the added effect at an edge of its
+/// range ([`fitted_not_a_finding`]: that would be a stand-in, as a pinned trial is); the round
+/// records it (`removed`, `applied`) and the next round starts from that diagnosis.
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     opts.validate()?;
     let reference = Reference::new(measured, &opts.compare)?;
@@ -1090,8 +1112,9 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 o.refit_effects.push(b);
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
                 let v = reachable_objective(d2.judged_objective(), &d2.trials);
-                tried.push(format!("{} in place of {} reaches {v:.2}", b.name(), a.name()));
-                if v < stuck_reaches - tie && kept.as_ref().is_none_or(|k| v < k.reaches) {
+                let edge = fitted_not_a_finding(b, &cal2);
+                tried.push(format!("{} in place of {} reaches {v:.2}{}", b.name(), a.name(), edge.map_or(String::new(), |n| format!(", but {n}"))));
+                if edge.is_none() && v < stuck_reaches - tie && kept.as_ref().is_none_or(|k| v < k.reaches) {
                     kept = Some(Replacement { reaches: v, removed: a, added: b, machine: swapped, diagnosed: (cal2, d2), opts: o });
                 }
             }
@@ -1402,6 +1425,32 @@ mod tests {
         // Nothing applied: nothing to replace.
         m.effects.disable(Unbalance);
         assert_eq!(replacement_candidates(&h, &m, &opts), vec![]);
+    }
+
+    #[test]
+    fn a_replacement_fitted_at_an_edge_of_its_range_is_no_finding() {
+        use EffectKind::*;
+        let mut m = crate::model::preset("mfs_inner").unwrap();
+        for k in [Unbalance, PathModulation, CasingModes] {
+            m.effects.enable(k);
+        }
+        let set = |m: &mut Machine, p: Param, v: f64| p.set(m, v);
+        // CWRU 234's unbalance at the top of its range: a stand-in; inside it: a finding.
+        set(&mut m, Param::UnbalanceKgM, 8.86e-3);
+        assert!(fitted_not_a_finding(Unbalance, &m).is_some_and(|n| n.contains("top of its range")));
+        set(&mut m, Param::UnbalanceKgM, 3e-4);
+        assert_eq!(fitted_not_a_finding(Unbalance, &m), None);
+        // A path modulation at the physics' own limit stays a finding; all but off it is none.
+        set(&mut m, Param::PathModulationDepth, 0.988);
+        assert_eq!(fitted_not_a_finding(PathModulation, &m), None);
+        set(&mut m, Param::PathModulationDepth, 0.06);
+        assert!(fitted_not_a_finding(PathModulation, &m).is_some_and(|n| n.contains("bottom of its range")));
+        // A casing mode at the edge of the band is outside what the data show.
+        let fs_hz = m.fs_hz;
+        set(&mut m, Param::CasingModeHz, 0.449 * fs_hz);
+        assert_eq!(fitted_not_a_finding(CasingModes, &m), Some(OUTSIDE_BAND_NOTE));
+        // A switch without a parameter is never pinned.
+        assert_eq!(fitted_not_a_finding(NonlinearContact, &m), None);
     }
 
     #[test]
