@@ -640,7 +640,6 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
 /// The yardstick's table cell: a model's objective / the true machine's mean ± sd (its
 /// envelope NRMSE %) / the true machine's without the hidden effects.
 fn oracle_cell(o: &twinscope::compare::hidden::Oracle, model_objective: f64) -> String {
@@ -649,6 +648,7 @@ fn oracle_cell(o: &twinscope::compare::hidden::Oracle, model_objective: f64) -> 
     format!("{model_objective:.2} / {truth:.2} ± {sd:.2} ({:.1}) / {without}", o.truth_envelope_nrmse())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;

@@ -127,10 +127,11 @@ pub fn to_svg(p: &PlotData, width_px: u32, height_px: u32) -> String {
     svg.push_str(&format!("<rect x=\"{ml}\" y=\"{mt}\" width=\"{pw}\" height=\"{ph}\" fill=\"none\" stroke=\"#444\"/>\n"));
     svg.push_str(&format!("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", ml + pw / 2.0, h - 8.0, esc(&p.x_label)));
     svg.push_str(&format!("<text x=\"14\" y=\"{}\" text-anchor=\"middle\" transform=\"rotate(-90 14 {})\">{}</text>\n", mt + ph / 2.0, mt + ph / 2.0, esc(&p.y_label)));
-    if !(x0 < x1) {
+    // Also when either is NaN (no finite point).
+    if x0.partial_cmp(&x1) != Some(std::cmp::Ordering::Less) {
         x1 = x0 + 1.0;
     }
-    if !(y0 < y1) {
+    if y0.partial_cmp(&y1) != Some(std::cmp::Ordering::Less) {
         let c = if y0.is_finite() { y0 } else { 0.0 };
         (y0, y1) = (c - 1.0, c + 1.0);
     }

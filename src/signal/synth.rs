@@ -60,9 +60,9 @@ pub fn impact_train(n: usize, fs_hz: f64, p: &ImpactTrain, seed: u64) -> Vec<f64
         }
         let gain = p.amplitude * (1.0 + p.modulation_depth * (2.0 * PI * p.modulation_hz * t0).cos());
         let i0 = (t0 * fs_hz).ceil().max(0.0) as usize;
-        for i in i0..(i0 + ring).min(n) {
+        for (i, xi) in x.iter_mut().enumerate().take((i0 + ring).min(n)).skip(i0) {
             let t = i as f64 / fs_hz - t0;
-            x[i] += gain * (-decay * t).exp() * (wn * t).sin();
+            *xi += gain * (-decay * t).exp() * (wn * t).sin();
         }
         k += 1;
     }

@@ -52,6 +52,7 @@ fn axis_label(s: &Spectrum, scale: AmplitudeScale) -> String {
 }
 
 /// Draws `s` with `markers` in the visible band; returns nothing.
+#[allow(clippy::too_many_arguments)]
 fn spectrum_plot(ui: &mut egui::Ui, id: &str, s: &Spectrum, scale: AmplitudeScale, markers: &[&MarkerLine], link: Option<egui::Id>, height: f32, peaks: &[(f64, f64, String)]) {
     let y = scale_values(&s.values, scale, is_power(s));
     let pts: PlotPoints = s.frequency_hz.iter().zip(&y).map(|(&f, &v)| [f, v]).collect();
