@@ -241,14 +241,6 @@ struct SearchArgs {
     /// "Detection limits").
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().realisations as u16, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
     realisations: u16,
-    /// Judge the search on K realisations while fitting with `--realisations` (one by
-    /// default): the calibrated model, the floor, the scatter and every fitted trial (held
-    /// out, with its ablation) are evaluated with K, the calibration and the trials' fits
-    /// with one. For random effects (slip), whose objective scatters from draw to draw by
-    /// about their own gain, at a fraction of `--realisations K`'s cost. 0: as
-    /// `--realisations`. An option under test (README "Detection limits").
-    #[arg(long, value_name = "K", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_REALISATIONS as i64))]
-    judge_realisations: u16,
 }
 
 fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {
@@ -264,7 +256,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, judge_realisations: self.judge_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

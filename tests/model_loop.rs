@@ -142,36 +142,6 @@ fn a_noise_trial_expects_exactly_the_evaluations_it_makes() {
     assert_eq!(calls, expected);
 }
 
-#[test]
-fn judging_on_more_realisations_leaves_the_fits_alone_and_judges_them_held_out() {
-    // `judge_realisations`: the calibration and every trial's fit with one realisation, bit for
-    // bit those of a plain search; the calibrated model, the floor and each trial judged on
-    // three held-out realisations, with the floor ratio of K = 3; the progress total exact.
-    use twinscope::compare::diagnose::floor_ratio_needed;
-    let (m, measured, opts) = quick_case(15, vec![EffectKind::Slip, EffectKind::LoadZone]);
-    let judged = LoopOptions { judge_realisations: 3, ..opts.clone() };
-    let (plain, ..) = diagnose_counting(&m, &measured, &opts);
-    let (d, calls, expected) = diagnose_counting(&m, &measured, &judged);
-    assert_eq!(calls, expected);
-    assert_eq!(d.calibration.parameters, plain.calibration.parameters);
-    assert_eq!(d.calibration.objective_after, plain.calibration.objective_after);
-    assert!(plain.held_out_objective.is_none() && d.held_out_objective.is_some());
-    assert_ne!(d.floor_objective, plain.floor_objective);
-    assert_eq!(d.trials.len(), 2);
-    for t in &d.trials {
-        let p = plain.trials.iter().find(|x| x.effect == t.effect).unwrap();
-        assert_eq!(t.objective_fitted, Some(p.objective_after), "{}: the fit is the plain search's", t.effect.name());
-        assert_eq!(t.parameter, p.parameter);
-        assert_eq!(t.objective_before, d.held_out_objective.unwrap());
-    }
-    assert_eq!(floor_ratio_needed(&judged), floor_ratio_needed(&LoopOptions { realisations: 3, ..opts.clone() }));
-    assert!(floor_ratio_needed(&judged) > floor_ratio_needed(&opts));
-    // Fewer judged than fitted is refused, naming the setting.
-    let bad = LoopOptions { realisations: 2, judge_realisations: 1, ..opts };
-    let e = twinscope::compare::diagnose(&m, &measured, &bad, &|_, _| true).unwrap_err().to_string();
-    assert!(e.contains("judge_realisations"), "{e}");
-}
-
 /// Diagnoses, counting the progress calls: (diagnosis, calls made, the last expected total).
 fn diagnose_counting(m: &model::Machine, measured: &twinscope::signal::Signal, opts: &LoopOptions) -> (twinscope::compare::Diagnosis, usize, usize) {
     use std::sync::atomic::{AtomicUsize, Ordering};

@@ -356,14 +356,6 @@ pub struct LoopOptions {
     /// are near a coin flip; fresh realisations for every line search did not change that, and
     /// the scatter falls as 1/√K (README "Detection limits").
     pub realisations: usize,
-    /// Realisations on which the search is *judged*, when more than it fits with
-    /// (`realisations`); 0: the same. The calibration and every trial's fit then use
-    /// `realisations` (one, cheap), while the calibrated model's objective, the floor, the
-    /// scatter, and every fitted trial (on held-out realisations, with its ablation) are
-    /// evaluated with this many, as with [`LoopOptions::realisations`] ≥ 2 throughout
-    /// ([`LoopOptions::judging`]). It targets the variance of the judgement, which hides a
-    /// random effect (slip) at one realisation, at a fraction of the cost of fitting with K.
-    pub judge_realisations: usize,
 }
 
 /// The range of [`LoopOptions::fit_duration_s`], s: below 0.2 s a record holds too few fault
@@ -375,12 +367,6 @@ pub const FIT_DURATION_RANGE_S: std::ops::RangeInclusive<f64> = 0.2..=60.0;
 pub const MAX_REALISATIONS: usize = 16;
 
 impl LoopOptions {
-    /// The options the search is judged with: `realisations` raised to
-    /// [`LoopOptions::judge_realisations`] when that is larger; otherwise these options.
-    pub fn judging(&self) -> LoopOptions {
-        LoopOptions { realisations: self.realisations.max(self.judge_realisations), ..self.clone() }
-    }
-
     /// Checks the settings a user can give: the fit duration within
     /// [`FIT_DURATION_RANGE_S`], 1 to [`MAX_REALISATIONS`] realisations, at most
     /// [`super::MAX_PATH_CORRECTION_BANDS`] correction bands, finite non-negative weights (not
@@ -395,9 +381,6 @@ impl LoopOptions {
         }
         if !(1..=MAX_REALISATIONS).contains(&self.realisations) {
             return bad("realisations", format!("{}: give 1 to {MAX_REALISATIONS}", self.realisations));
-        }
-        if self.judge_realisations != 0 && !(self.realisations..=MAX_REALISATIONS).contains(&self.judge_realisations) {
-            return bad("judge_realisations", format!("{}: give 0 (as `realisations`) or {} to {MAX_REALISATIONS} (at least `realisations`)", self.judge_realisations, self.realisations));
         }
         super::check_path_correction_bands(self.compare.path_correction_bands)?;
         if !(self.weights.iter().all(|w| w.is_finite() && *w >= 0.0) && self.weights.iter().any(|w| *w > 0.0)) {
@@ -443,7 +426,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, decision_rule: DecisionRule::FloorMargin, realisations: 1, judge_realisations: 0 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, decision_rule: DecisionRule::FloorMargin, realisations: 1 }
     }
 }
 

@@ -502,12 +502,10 @@ fn above_floor(j: f64, floor: f64, opts: &LoopOptions) -> bool {
 /// ([`DomainComparison::debiased_nrmse_percent`](crate::compare::DomainComparison::debiased_nrmse_percent)):
 /// floor² ≈ V, j² ≈ b² + V, and the same b²/V needs the ratio √(1 + 2((1 + m)² − 1)), 1.87
 /// for the default 0.5. Keeping 1 + m there would ask for a systematic distance 2.3 times
-/// smaller than with one realisation (README "Detection limits"). K is that of the judgement
-/// ([`LoopOptions::judging`]).
+/// smaller than with one realisation (README "Detection limits").
 pub fn floor_ratio_needed(opts: &LoopOptions) -> f64 {
     let r1 = 1.0 + opts.floor_margin;
-    // The floor and the objective it is held against are those of the judgement.
-    if opts.realisations.max(opts.judge_realisations) <= 1 {
+    if opts.realisations <= 1 {
         r1
     } else {
         (1.0 + 2.0 * (r1 * r1 - 1.0)).sqrt()
@@ -528,9 +526,6 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     opts.validate()?;
     let measured = reference;
     let cal_params = calibration_parameters_for(m, opts);
-    // What the search is judged with: the calibrated objective, the floor, the scatter and
-    // every fitted trial (`LoopOptions::judge_realisations`); the fits use `opts`.
-    let judge = &opts.judging();
     let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, m) && (opts.candidates.is_empty() || opts.candidates.contains(k))).collect();
     progress.expect(
         fit_evaluations(m, &cal_params, &[], opts.sweeps, opts)
@@ -551,7 +546,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
             .sum::<usize>()
             + opts.recalibrate_top.min(candidates.len()) * fit_trial_evaluations(m, &[], &cal_params, opts)
             + candidates.len()
-            + if judge.realisations >= 2 { 1 + candidates.len() } else { 0 },
+            + if opts.realisations >= 2 { 1 + candidates.len() } else { 0 },
     );
     let (cal_m, cal) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
     // A calibration that pinned a parameter may have bent it to stand in for the missing
@@ -581,17 +576,17 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
             .sum();
         progress.expect(extra);
     }
-    let (c, _) = evaluate(&cal_m, measured, judge)?;
+    let (c, _) = evaluate(&cal_m, measured, opts)?;
     progress.tick();
     let (fams, shaft) = machine_families(&cal_m);
     let map = residual_map(&c, &fams, shaft);
     let j0 = objective(&c, &opts.weights);
     let env0 = c.envelope_nrmse();
-    let (floor, floor_domains) = seed_floor(&cal_m, measured.measured(), &c, judge)?;
+    let (floor, floor_domains) = seed_floor(&cal_m, measured.measured(), &c, opts)?;
     for _ in FLOOR_SEEDS {
         progress.tick();
     }
-    let scatter = objective_scatter(&cal_m, measured, j0, judge)?;
+    let scatter = objective_scatter(&cal_m, measured, j0, opts)?;
     for _ in SCATTER_SEEDS {
         progress.tick();
     }
@@ -688,8 +683,8 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     // Fitting a random effect against the debiased objective otherwise finds the values
     // where the subtracted scatter of its own realisations happens to be large (an
     // optimiser's curse: README "Detection limits").
-    let held_out = if judge.realisations >= 2 {
-        let (ch, _) = evaluate(&reseeded(&cal_m, HELD_OUT_SALT), measured, judge)?;
+    let held_out = if opts.realisations >= 2 {
+        let (ch, _) = evaluate(&reseeded(&cal_m, HELD_OUT_SALT), measured, opts)?;
         progress.tick();
         Some(ch)
     } else {
@@ -710,14 +705,14 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         .map(|(mut t, fm)| {
             let mut judged = if held_out.is_some() { reseeded(&fm, HELD_OUT_SALT) } else { fm };
             if let Some(ch) = &held_out {
-                let ct = evaluate(&judged, measured, judge);
+                let ct = evaluate(&judged, measured, opts);
                 progress.tick();
                 let (ct, _) = ct.map_err(|e| (t.effect, format!("its fitted model could not be evaluated on the held-out realisations: {e}")))?;
                 rejudge(&mut t, ch, &ct, floor, &opts.weights);
             }
             judged.effects.disable(t.effect);
             let off = judged;
-            t.objective_without_effect = evaluate(&off, measured, judge).ok().map(|(c, _)| objective(&c, &opts.weights));
+            t.objective_without_effect = evaluate(&off, measured, opts).ok().map(|(c, _)| objective(&c, &opts.weights));
             progress.tick();
             t.effect_explained = t.objective_without_effect.filter(|_| excess > 0.0).map(|j| (j - t.objective_after) / excess);
             Ok(t)
@@ -735,7 +730,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
         return Err(LoopError::Cancelled);
     }
     let held_out_objective = held_out.as_ref().map(|_| j0);
-    let (trials, best, verdict) = decide(trials, j0, floor, scatter, judge);
+    let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
     Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective }))
 }

@@ -156,8 +156,6 @@ impl Oracle {
 /// in parallel.
 pub fn oracle(truth: &Machine, hidden: &[EffectKind], reference: &Reference, opts: &LoopOptions) -> Result<Oracle, LoopError> {
     use rayon::prelude::*;
-    // Scored as the search is judged (`LoopOptions::judge_realisations`).
-    let opts = &opts.judging();
     let mut without = truth.clone();
     for k in hidden {
         without.effects.disable(*k);
