@@ -936,9 +936,10 @@ pub fn effect_values_text(values: &[(Param, f64)]) -> String {
 
 /// Whether effect `k`, as fitted in `m`, is no finding by the rule for trials ([`range_edge`]:
 /// its feature at the edge of the band, or its strength pinned at an edge of its range): the
-/// note to print, or None when it is a finding. The loop keeps no replacement whose added effect the
-/// calibration fitted so ([`run_loop`]): a runner-up's trial is not checked, since the swapped
-/// model's calibration fits the effect again and may place it well where the trial did not.
+/// note to print, or None when it is a finding. The loop keeps no replacement whose added
+/// effect the calibration fitted so ([`run_loop`]); a runner-up's trial is not checked, since
+/// the swapped model's calibration fits the effect again and may place it well where the
+/// trial did not.
 pub fn fitted_not_a_finding(k: EffectKind, m: &Machine) -> Option<&'static str> {
     let p = Param::main_of_effect(k)?;
     let v = p.get(m)?;
