@@ -7,6 +7,7 @@
 use super::machine::FaultLocation;
 use super::system::ForceElement;
 use std::f64::consts::{PI, TAU};
+use std::sync::LazyLock;
 
 /// Prescribed rotation of a shaft: mean speed plus an optional sinusoidal fluctuation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -164,18 +165,99 @@ fn wrap(a: f64) -> f64 {
 #[inline]
 fn race_depth(profile: &DepthProfile, rel: f64, r: f64) -> f64 {
     const MARGIN_RAD: f64 = 1e-9;
-    // No division and no `f64::floor` (a library call without SSE4.1): whole turns by
-    // truncation, corrected below zero.
-    let turns = rel * (1.0 / TAU);
-    let mut whole = turns as i64 as f64;
-    if whole > turns {
-        whole -= 1.0;
-    }
-    let approx = rel - TAU * whole;
+    let approx = reduce_turns(rel);
     if (approx - MARGIN_RAD) * r >= profile.length_m() && approx <= TAU - MARGIN_RAD {
         return 0.0;
     }
     profile.depth_at(wrap(rel) * r)
+}
+
+/// `sin_cos(2π / balls)`, the rotation between neighbouring balls, tabled once for the ball
+/// counts bearings have (the same libm call, so the same bits as computing it per evaluation).
+fn spacing_sin_cos(balls: usize) -> (f64, f64) {
+    const TABLED: usize = 64;
+    static TABLE: LazyLock<Vec<(f64, f64)>> = LazyLock::new(|| (0..=TABLED).map(|z| (TAU / z as f64).sin_cos()).collect());
+    if balls <= TABLED {
+        TABLE[balls]
+    } else {
+        (TAU / balls as f64).sin_cos()
+    }
+}
+
+/// Which balls may be over a race fault in one force evaluation, decided once for all balls.
+///
+/// Ball j is at `φ_j = cage + o_j` with `o_j = j·spacing + ξ_j`; a race fault's leading edge is
+/// at `θ_f` (outer race: fixed; inner race: turning with the shaft), and it covers
+/// `w = L / r` rad. The ball can see a depth only if `(o_j − (θ_f − cage)) mod 2π` lies in
+/// `[−ε, w + ε]`. `ε` (1e-6 rad plus 1e-12 of the angles' size) is far above the rounding
+/// of either side, so a ball declared far would have got exactly zero depth from
+/// [`race_depth`]: skipping it leaves every force bit-identical. A ball fault is seen by
+/// ball 0 only.
+struct FaultWindows {
+    /// Per race fault: `(θ_f − cage)` reduced to about [0, 2π), and `w + ε`.
+    race: [(f64, f64); Self::MAX_RACE],
+    n_race: usize,
+    eps: f64,
+    /// A ball fault: ball 0 is always a candidate.
+    ball0: bool,
+    /// Too many faults to table: every ball is a candidate.
+    every_ball: bool,
+}
+
+impl FaultWindows {
+    const MAX_RACE: usize = 4;
+
+    fn new(faults: &[BearingFault], cage: f64, shaft_angle: f64, (r_outer, r_inner): (f64, f64)) -> Self {
+        let mut w = Self { race: [(0.0, 0.0); Self::MAX_RACE], n_race: 0, eps: 0.0, ball0: false, every_ball: false };
+        let mut size = cage.abs();
+        for f in faults {
+            let (fault_angle, r) = match f.location {
+                FaultLocation::Outer => (f.position_rad, r_outer),
+                FaultLocation::Inner => (f.position_rad + shaft_angle, r_inner),
+                FaultLocation::Ball => {
+                    w.ball0 = true;
+                    continue;
+                }
+            };
+            if w.n_race == Self::MAX_RACE {
+                w.every_ball = true;
+                return w;
+            }
+            size = size.max(fault_angle.abs());
+            w.race[w.n_race] = (reduce_turns(fault_angle - cage), f.profile.length_m() / r);
+            w.n_race += 1;
+        }
+        w.eps = 1e-6 + 1e-12 * size;
+        for (_, width) in &mut w.race[..w.n_race] {
+            *width += w.eps;
+        }
+        w
+    }
+
+    /// Whether ball `j`, at `offset` = `j·spacing + ξ_j` rad past the cage, may be over a fault.
+    #[inline]
+    fn may_touch(&self, j: usize, offset: f64) -> bool {
+        if self.every_ball || (self.ball0 && j == 0) {
+            return true;
+        }
+        self.race[..self.n_race].iter().any(|&(base, width)| {
+            let d = reduce_turns(offset - base);
+            d <= width || d >= TAU - self.eps
+        })
+    }
+}
+
+/// `a` less a whole number of turns, in about [0, 2π) (a few ulps of `a` off the exact
+/// remainder). No division and no `f64::floor` (a library call without SSE4.1): whole turns
+/// by truncation, corrected below zero.
+#[inline]
+fn reduce_turns(a: f64) -> f64 {
+    let turns = a * (1.0 / TAU);
+    let mut whole = turns as i64 as f64;
+    if whole > turns {
+        whole -= 1.0;
+    }
+    a - TAU * whole
 }
 
 impl BearingElement {
@@ -197,14 +279,33 @@ impl BearingElement {
     }
 
     fn slip_offset(&self, j: usize, cage: f64) -> f64 {
+        self.slip_offset_at(j, Self::cage_revolutions(cage))
+    }
+
+    /// Cage revolutions completed at a cage angle (rad), ≥ 0: the slip table's abscissa.
+    #[inline]
+    fn cage_revolutions(cage: f64) -> f64 {
+        (cage / TAU).max(0.0)
+    }
+
+    /// Slip offset of ball `j` (rad) after `rev` cage revolutions (≥ 0), interpolated linearly
+    /// in its table.
+    #[inline]
+    fn slip_offset_at(&self, j: usize, rev: f64) -> f64 {
         let Some(table) = self.slip.get(j) else { return 0.0 };
         if table.len() < 2 {
             return 0.0;
         }
-        let rev = (cage / TAU).max(0.0);
-        let m = (rev.floor() as usize).min(table.len() - 2);
+        // `rev ≥ 0`, so truncation is the floor (without a libm call).
+        let m = (rev as usize).min(table.len() - 2);
         let fr = (rev - m as f64).clamp(0.0, 1.0);
         table[m] * (1.0 - fr) + table[m + 1] * fr
+    }
+
+    /// Rolling radii of the outer and inner race (m): `(D ± d) / 2`.
+    #[inline]
+    fn race_radii_m(&self) -> (f64, f64) {
+        (0.5 * (self.pitch_diameter_m + self.ball_diameter_m), 0.5 * (self.pitch_diameter_m - self.ball_diameter_m))
     }
 
     /// Fault depth seen by ball `j` at angle `phi` when the shaft has turned by `shaft_angle`
@@ -213,12 +314,9 @@ impl BearingElement {
         let mut depth = 0.0;
         for f in &self.faults {
             let d = match f.location {
-                FaultLocation::Outer => {
-                    let r = 0.5 * (self.pitch_diameter_m + self.ball_diameter_m);
-                    race_depth(&f.profile, phi - f.position_rad, r)
-                }
+                FaultLocation::Outer => race_depth(&f.profile, phi - f.position_rad, self.race_radii_m().0),
                 FaultLocation::Inner => {
-                    let r = 0.5 * (self.pitch_diameter_m - self.ball_diameter_m);
+                    let r = self.race_radii_m().1;
                     let fault_angle = f.position_rad + shaft_angle;
                     race_depth(&f.profile, phi - fault_angle, r)
                 }
@@ -302,31 +400,38 @@ impl ForceElement for BearingElement {
         let shaft_angle = self.motion.angle(t);
         let cage = self.cage_angle_of(shaft_angle);
         let spacing = TAU / self.balls as f64;
-        let has_faults = !self.faults.is_empty();
         // A fault only deepens the gap (depth h ≥ 0): a ball out of contact without it,
         // δ ≤ 0, stays out with it (δ − h ≤ δ ≤ 0 exactly in floating point), so its fault
         // depth, most of a force evaluation's cost, is skipped. The result is bit-identical.
         let skip_unloaded = self.faults.iter().all(|f| f.profile.never_negative());
+        // Of the balls in contact, only those near a fault can see a depth: which they are is
+        // decided once per evaluation (`FaultWindows`), so the others skip it too.
+        let windows = FaultWindows::new(&self.faults, cage, shaft_angle, self.race_radii_m());
         let has_slip = !self.slip.is_empty();
+        let rev = Self::cage_revolutions(cage);
         // Ball j sits at φ_j = cage + j·spacing (+ slip): one sin_cos for the cage, then a
         // rotation recurrence by the spacing, and a 4th-order Taylor rotation by the small slip
         // offset (|ξ| ≲ 0.05 rad, error < 3e-9), instead of a sin_cos per ball.
         let (mut s0, mut c0) = cage.sin_cos();
-        let (ds, dc) = spacing.sin_cos();
+        let (ds, dc) = spacing_sin_cos(self.balls);
+        let mut jf = 0.0; // j as f64, counted (exact) rather than converted from usize
         for j in 0..self.balls {
             let (mut s, mut c) = (s0, c0);
-            let mut phi = cage + spacing * j as f64;
+            let mut offset = spacing * jf;
+            let mut phi = cage + offset;
+            jf += 1.0;
             if has_slip {
-                let xi = self.slip_offset(j, cage);
+                let xi = self.slip_offset_at(j, rev);
                 let x2 = xi * xi;
                 let (sx, cx) = (xi * (1.0 - x2 / 6.0), 1.0 - x2 / 2.0 + x2 * x2 / 24.0);
                 (s, c) = (s * cx + c * sx, c * cx - s * sx);
                 phi += xi;
+                offset += xi;
             }
             // Unit vector from the bearing centre to ball j: (sin φ, −cos φ); φ = 0 is the
             // load direction (−y, "6 o'clock").
             let mut delta = dx * s - dy * c - self.clearance_m;
-            if has_faults && !(skip_unloaded && delta <= 0.0) {
+            if windows.may_touch(j, offset) && !(skip_unloaded && delta <= 0.0) {
                 delta -= self.fault_depth(j, phi, shaft_angle);
             }
             let qj = self.contact_force(delta);
@@ -394,6 +499,75 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_ball_the_fault_windows_pass_over_sees_no_fault_depth() {
+        // `FaultWindows` lets `add_forces` skip the fault depth of balls far from every fault;
+        // that is bit-identical only if each skipped ball's depth is exactly zero. Checked on
+        // random cage and shaft angles (long runs too), with slip offsets, for inner, outer
+        // and extended faults, and near the windows' edges; the windows must also pass over
+        // most balls, or they save nothing.
+        let mut x: u64 = 0x2545F4914F6CDD1D;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let spall = DepthProfile::Spall { length_m: 0.533e-3, depth_m: 1e-4, ball_radius_m: 3.97e-3 };
+        let extended = DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![0.0, 2e-6, -1e-6, 3e-6] };
+        let sets = [
+            vec![BearingFault { location: FaultLocation::Inner, profile: spall.clone(), position_rad: 0.3 }],
+            vec![BearingFault { location: FaultLocation::Outer, profile: spall.clone(), position_rad: -1.0 }],
+            vec![
+                BearingFault { location: FaultLocation::Outer, profile: spall.clone(), position_rad: 0.0 },
+                BearingFault { location: FaultLocation::Inner, profile: extended.clone(), position_rad: 2.0 },
+            ],
+        ];
+        let (mut skipped, mut total) = (0usize, 0usize);
+        for faults in sets {
+            let b = BearingElement {
+                name: "b".into(),
+                shaft: (0, 1),
+                pedestal: (2, 3),
+                balls: 9,
+                ball_diameter_m: 7.94e-3,
+                pitch_diameter_m: 39.04e-3,
+                ratio: 7.94 / 39.04,
+                clearance_m: 0.0,
+                law: ContactLaw::Hertz { k: 8e9, n: 1.5 },
+                motion: ShaftMotion::constant(29.95),
+                faults,
+                slip: vec![],
+            };
+            let spacing = TAU / 9.0;
+            for scale in [1.0, 1e3, 1e5] {
+                for _ in 0..4000 {
+                    let shaft_angle = (next() - 0.2) * scale;
+                    let cage = b.cage_angle_of(shaft_angle);
+                    let windows = FaultWindows::new(&b.faults, cage, shaft_angle, b.race_radii_m());
+                    for j in 0..9 {
+                        // Slip offsets, and offsets put just beside each window's edges.
+                        let mut offsets = vec![spacing * j as f64, spacing * j as f64 + (next() - 0.5) * 0.1];
+                        for &(base, width) in &windows.race[..windows.n_race] {
+                            for edge in [base, base + width - windows.eps] {
+                                offsets.push(edge + (next() - 0.5) * 1e-5);
+                            }
+                        }
+                        for offset in offsets {
+                            total += 1;
+                            if !windows.may_touch(j, offset) {
+                                skipped += 1;
+                                let depth = b.fault_depth(j, cage + offset, shaft_angle);
+                                assert_eq!(depth.to_bits(), 0f64.to_bits(), "ball {j} at offset {offset}, shaft {shaft_angle}");
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(skipped * 2 > total, "the windows skip only {skipped} of {total}");
     }
 
     #[test]
