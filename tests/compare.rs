@@ -109,6 +109,28 @@ fn through_path(s: &Signal) -> Signal {
 }
 
 #[test]
+fn the_mean_of_realisations_reports_the_mean_of_their_path_corrections() {
+    // Two realisations behind different paths each get their own correction; the comparison
+    // of their mean reports the average of the two (it used to report the first one's).
+    use twinscope::compare::Reference;
+    use twinscope::dsp::path_correction::PathCorrection;
+    let o = CompareOptions { path_correction_bands: 12, ..opts() };
+    let r = Reference::new(&through_path(&bearing_signal(12000.0, 1.5, 0.5, 1)), &o).unwrap();
+    let quieter = |s: Signal| {
+        let mut s = s;
+        s.samples.iter_mut().for_each(|v| *v *= 0.25);
+        s
+    };
+    let (a, b) = (bearing_signal(12000.0, 1.5, 0.5, 2), quieter(bearing_signal(12000.0, 1.5, 0.5, 3)));
+    let (ca, cb) = (r.compare(&a).unwrap().path_correction.unwrap(), r.compare(&b).unwrap().path_correction.unwrap());
+    // A quarter of the amplitude is 12 dB more gain.
+    assert!((cb.level_db - ca.level_db - 12.04).abs() < 1.0, "levels {:.2} and {:.2} dB", ca.level_db, cb.level_db);
+    let mean = r.compare_mean(&[a, b]).unwrap().path_correction.unwrap();
+    assert_eq!(mean, PathCorrection::mean(&[ca.clone(), cb]).unwrap());
+    assert!((mean.level_db - ca.level_db - 6.02).abs() < 0.5, "mean level {:.2} dB against the first's {:.2}", mean.level_db, ca.level_db);
+}
+
+#[test]
 fn the_path_correction_takes_the_transfer_path_and_leaves_the_modulation() {
     let with_path = |modulation: f64, seed: u64| through_path(&bearing_signal(12000.0, 2.0, modulation, seed));
     let measured = with_path(0.5, 1);

@@ -511,7 +511,7 @@ impl SimulatedDomains {
         std::iter::once(&self.envelope).chain(std::iter::once(&self.psd)).chain(self.slices.iter())
     }
 
-    /// The per-bin mean of the realisations (the first one's path correction), and for each
+    /// The per-bin mean of the realisations (and of their path corrections), and for each
     /// domain in comparison order the RMS over bins of the mean's standard error s/√K (s² the
     /// per-bin sample variance; for the PSD, compared in dB, carried to dB by the delta method:
     /// s_dB = 10/ln 10 · s / mean). With one realisation: that one, unchanged, and zeros.
@@ -522,6 +522,12 @@ impl SimulatedDomains {
         let n_domains = mean.quantities().count();
         if rest.is_empty() {
             return (mean, vec![0.0; n_domains]);
+        }
+        // Each realisation was compared after its own correction; the one reported (and the
+        // level the calibration's gain reads from it) is their mean.
+        if let Some(first) = &mean.path_correction {
+            let all: Vec<_> = std::iter::once(first).chain(rest.iter().filter_map(|r| r.path_correction.as_ref())).cloned().collect();
+            mean.path_correction = dsp::path_correction::PathCorrection::mean(&all).or(mean.path_correction);
         }
         let kf = k as f64;
         let per_realisation: Vec<Vec<&Vec<f64>>> = std::iter::once(&mean).chain(rest.iter()).map(|r| r.quantities().collect()).collect();

@@ -94,6 +94,20 @@ impl std::fmt::Display for PathCorrection {
 }
 
 impl PathCorrection {
+    /// The mean of corrections fitted on the same bands (one per model realisation): the gain
+    /// at each centre and the level averaged in dB. `None` if `each` is empty or its members
+    /// have different centres.
+    pub fn mean(each: &[PathCorrection]) -> Option<PathCorrection> {
+        let first = each.first()?;
+        if each.iter().any(|c| c.centre_hz != first.centre_hz || c.gain_db.len() != first.gain_db.len()) {
+            return None;
+        }
+        let k = each.len() as f64;
+        let gain_db = (0..first.gain_db.len()).map(|i| each.iter().map(|c| c.gain_db[i]).sum::<f64>() / k).collect();
+        let level_db = each.iter().map(|c| c.level_db).sum::<f64>() / k;
+        Some(PathCorrection { centre_hz: first.centre_hz.clone(), gain_db, level_db })
+    }
+
     /// Gain in dB at `f_hz`: linear in dB against log-frequency between centres, flat beyond.
     pub fn gain_db_at(&self, f_hz: f64) -> f64 {
         let (c, g) = (&self.centre_hz, &self.gain_db);
@@ -156,6 +170,18 @@ mod tests {
             assert!((hi / lo - 2.0).abs() < 1e-12, "band {k}: one octave each");
         }
         assert!(log_bands(0.0, 10.0, 3).is_err() && log_bands(10.0, 5.0, 3).is_err() && log_bands(1.0, 10.0, 0).is_err());
+    }
+
+    #[test]
+    fn the_mean_correction_averages_gains_and_levels_in_db() {
+        let a = PathCorrection { centre_hz: vec![100.0, 1000.0], gain_db: vec![1.0, -3.0], level_db: 0.5 };
+        let b = PathCorrection { centre_hz: vec![100.0, 1000.0], gain_db: vec![3.0, -1.0], level_db: 1.5 };
+        let m = PathCorrection::mean(&[a.clone(), b]).unwrap();
+        assert_eq!((m.gain_db, m.level_db), (vec![2.0, -2.0], 1.0));
+        assert_eq!(PathCorrection::mean(std::slice::from_ref(&a)), Some(a.clone()));
+        let other = PathCorrection { centre_hz: vec![100.0, 2000.0], ..a.clone() };
+        assert_eq!(PathCorrection::mean(&[a, other]), None);
+        assert_eq!(PathCorrection::mean(&[]), None);
     }
 
     #[test]
