@@ -29,7 +29,7 @@ pub struct Simulator<'a> {
     pub v: Vec<f64>,
     dt: f64,
     substeps: usize,
-    k: [Vec<f64>; 8],
+    k: [Vec<f64>; 7],
     tmp_q: Vec<f64>,
     tmp_v: Vec<f64>,
     /// Sensor reading at the start of the last RK4 step (from its first stage).
@@ -80,35 +80,32 @@ impl<'a> Simulator<'a> {
         self.model.sensor.terms.iter().map(|(d, w)| w * self.tmp_v[*d]).sum()
     }
 
-    /// One RK4 step of `dt`.
+    /// One RK4 step of `dt`. The stage slopes of the displacements are the stage velocities
+    /// themselves (`v`, then `k[4..7]`), so they are read in place rather than copied.
     fn rk4(&mut self) {
         let sys = &self.model.system;
         let (h, t) = (self.dt, self.t);
         let n = self.q.len();
-        let [k1q, k1v, k2q, k2v, k3q, k3v, k4q, k4v] = &mut self.k;
-        k1q.copy_from_slice(&self.v);
+        let [k1v, k2v, k3v, k4v, v2, v3, v4] = &mut self.k;
         sys.accelerations(t, &self.q, &self.v, k1v);
         self.k1_reading = self.model.sensor.terms.iter().map(|(d, w)| w * k1v[*d]).sum();
         for i in 0..n {
-            self.tmp_q[i] = self.q[i] + 0.5 * h * k1q[i];
-            self.tmp_v[i] = self.v[i] + 0.5 * h * k1v[i];
+            self.tmp_q[i] = self.q[i] + 0.5 * h * self.v[i];
+            v2[i] = self.v[i] + 0.5 * h * k1v[i];
         }
-        k2q.copy_from_slice(&self.tmp_v);
-        sys.accelerations(t + 0.5 * h, &self.tmp_q, &self.tmp_v, k2v);
+        sys.accelerations(t + 0.5 * h, &self.tmp_q, v2, k2v);
         for i in 0..n {
-            self.tmp_q[i] = self.q[i] + 0.5 * h * k2q[i];
-            self.tmp_v[i] = self.v[i] + 0.5 * h * k2v[i];
+            self.tmp_q[i] = self.q[i] + 0.5 * h * v2[i];
+            v3[i] = self.v[i] + 0.5 * h * k2v[i];
         }
-        k3q.copy_from_slice(&self.tmp_v);
-        sys.accelerations(t + 0.5 * h, &self.tmp_q, &self.tmp_v, k3v);
+        sys.accelerations(t + 0.5 * h, &self.tmp_q, v3, k3v);
         for i in 0..n {
-            self.tmp_q[i] = self.q[i] + h * k3q[i];
-            self.tmp_v[i] = self.v[i] + h * k3v[i];
+            self.tmp_q[i] = self.q[i] + h * v3[i];
+            v4[i] = self.v[i] + h * k3v[i];
         }
-        k4q.copy_from_slice(&self.tmp_v);
-        sys.accelerations(t + h, &self.tmp_q, &self.tmp_v, k4v);
+        sys.accelerations(t + h, &self.tmp_q, v4, k4v);
         for i in 0..n {
-            self.q[i] += h / 6.0 * (k1q[i] + 2.0 * k2q[i] + 2.0 * k3q[i] + k4q[i]);
+            self.q[i] += h / 6.0 * (self.v[i] + 2.0 * v2[i] + 2.0 * v3[i] + v4[i]);
             self.v[i] += h / 6.0 * (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i]);
         }
         self.t += h;
