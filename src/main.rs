@@ -241,6 +241,12 @@ struct SearchArgs {
     /// "Detection limits").
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().realisations as u16, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
     realisations: u16,
+    /// A second look for random effects: when a search with one realisation ranks slip or a
+    /// rough extended fault first, the search is done again with K realisations (judged held
+    /// out) and that answer is given; other rankings keep the cost of one. 0: off (the
+    /// default; README "Detection limits").
+    #[arg(long, value_name = "K", default_value_t = LoopOptions::default().random_effect_realisations as u16, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_REALISATIONS as i64))]
+    random_effect_realisations: u16,
 }
 
 fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {
@@ -256,7 +262,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

@@ -468,6 +468,53 @@ fn with_several_realisations_the_trials_are_judged_on_held_out_realisations() {
     }
 }
 
+/// The second look for random effects (`LoopOptions::random_effect_realisations`): a search
+/// with one realisation that ranks a random effect first is done again with K realisations,
+/// and that diagnosis, exactly, is the answer, with the first one's verdict kept; a search led
+/// by a deterministic effect, or already with several realisations, is left as it is.
+#[test]
+fn a_random_effect_that_leads_with_one_realisation_gets_a_second_look_with_several() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use twinscope::compare::diagnose;
+    let strip = |mut d: twinscope::compare::Diagnosis| {
+        d.second_look = None;
+        d.verdict.clear();
+        d
+    };
+    // Slip the only candidate: it leads, so the second look is taken.
+    let (m, measured, base) = quick_case(12, vec![EffectKind::Slip]);
+    let looked = LoopOptions { random_effect_realisations: 2, ..base.clone() };
+    let (calls, expected) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    let (cal, d) = diagnose(&m, &measured, &looked, &|_, e| {
+        calls.fetch_add(1, Ordering::SeqCst);
+        expected.store(e, Ordering::SeqCst);
+        true
+    })
+    .unwrap();
+    assert_eq!(calls.load(Ordering::SeqCst), expected.load(Ordering::SeqCst), "both searches are counted");
+    let (_, one) = diagnose(&m, &measured, &base, &|_, _| true).unwrap();
+    let (cal2, two) = diagnose(&m, &measured, &LoopOptions { realisations: 2, ..base.clone() }, &|_, _| true).unwrap();
+    let look = d.second_look.clone().expect("slip led with one realisation");
+    assert_eq!((look.realisations, look.leader), (2, EffectKind::Slip));
+    assert_eq!(look.verdict_with_one, one.verdict);
+    assert!(d.verdict.starts_with(&two.verdict) && d.verdict.contains("second look with 2 realisations"), "{}", d.verdict);
+    assert!(d.held_out_objective.is_some(), "judged held out, as any diagnosis with two");
+    assert_eq!(cal, cal2);
+    assert_eq!(strip(d), strip(two));
+    // A deterministic leader, or several realisations already: no second look.
+    let (m, measured, base) = quick_case(12, vec![EffectKind::LoadZone]);
+    let (_, d) = diagnose(&m, &measured, &LoopOptions { random_effect_realisations: 2, ..base.clone() }, &|_, _| true).unwrap();
+    let (_, plain) = diagnose(&m, &measured, &base, &|_, _| true).unwrap();
+    assert_eq!(d, plain);
+    let (m, measured, base) = quick_case(12, vec![EffectKind::Slip]);
+    let two = LoopOptions { realisations: 2, ..base };
+    let (_, d) = diagnose(&m, &measured, &LoopOptions { random_effect_realisations: 4, ..two.clone() }, &|_, _| true).unwrap();
+    assert_eq!(d.second_look, None);
+    assert!(EffectKind::Slip.draws_at_random() && EffectKind::ExtendedFault.draws_at_random() && !EffectKind::LoadZone.draws_at_random());
+    // Out of range is refused before any simulation.
+    assert!(diagnose(&m, &measured, &LoopOptions { random_effect_realisations: 17, ..two }, &|_, _| panic!("no evaluation")).is_err());
+}
+
 /// The optimiser's curse that held-out judging answers. With two realisations the objective
 /// subtracts their sample variance, an estimate with one degree of freedom per bin, and a fit
 /// that moves a random effect can find values where that term happens to be large. On a

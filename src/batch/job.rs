@@ -206,6 +206,10 @@ pub struct LoopSpec {
     /// Default: the library's.
     #[serde(default = "LoopSpec::default_realisations")]
     pub realisations: usize,
+    /// Realisations of the second look when a random effect leads a one-realisation search
+    /// (`LoopOptions::random_effect_realisations`), 0 (off, the default) to 16.
+    #[serde(default = "LoopSpec::default_random_effect_realisations")]
+    pub random_effect_realisations: usize,
 }
 
 impl LoopSpec {
@@ -219,6 +223,10 @@ impl LoopSpec {
 
     fn default_realisations() -> usize {
         crate::compare::LoopOptions::default().realisations
+    }
+
+    fn default_random_effect_realisations() -> usize {
+        crate::compare::LoopOptions::default().random_effect_realisations
     }
 
     fn default_fit_duration_s() -> f64 {
@@ -239,7 +247,7 @@ impl LoopSpec {
         if !(1..=20).contains(&self.rounds) {
             return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, decision_rule: self.decision_rule, realisations: self.realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, decision_rule: self.decision_rule, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {

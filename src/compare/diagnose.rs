@@ -176,6 +176,23 @@ pub struct Diagnosis {
     /// None with one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub held_out_objective: Option<f64>,
+    /// Set when this diagnosis is the second look of
+    /// [`LoopOptions::random_effect_realisations`]: the realisations it used, the random effect
+    /// that led the ranking with one, and that ranking's verdict.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub second_look: Option<SecondLook>,
+}
+
+/// A diagnosis redone with several realisations because a random effect led it with one
+/// ([`LoopOptions::random_effect_realisations`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SecondLook {
+    /// Realisations of the second diagnosis.
+    pub realisations: usize,
+    /// The random effect ranked first with one realisation.
+    pub leader: EffectKind,
+    /// The verdict with one realisation.
+    pub verdict_with_one: String,
 }
 
 impl Diagnosis {
@@ -521,8 +538,26 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
     diagnose_with(m, &reference, opts, &LoopProgress::new(progress))
 }
 
-/// [`diagnose`] against a prepared [`Reference`].
+/// [`diagnose`] against a prepared [`Reference`]. With
+/// [`LoopOptions::random_effect_realisations`] K ≥ 2 and one realisation, a diagnosis whose
+/// best-ranked trial is a random effect ([`EffectKind::draws_at_random`]) is done again with K
+/// realisations, and that one is returned ([`Diagnosis::second_look`]).
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
+    let (cal, d) = diagnose_once(m, reference, opts, progress)?;
+    let k = opts.random_effect_realisations;
+    let leader = d.trials.first().map(|t| t.effect).filter(|e| e.draws_at_random());
+    let (Some(leader), true) = (leader, opts.realisations == 1 && k >= 2) else {
+        return Ok((cal, d));
+    };
+    let again = LoopOptions { realisations: k, ..opts.clone() };
+    let (cal, mut d2) = diagnose_once(m, reference, &again, progress)?;
+    d2.verdict = format!("{} (a second look with {k} realisations: {} led with one, where a random effect is fitted to one draw; with one: {})", d2.verdict, leader.name(), d.verdict);
+    d2.second_look = Some(SecondLook { realisations: k, leader, verdict_with_one: d.verdict });
+    Ok((cal, d2))
+}
+
+/// One diagnosis with `opts.realisations` realisations (see [`diagnose_with`]).
+fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     opts.validate()?;
     let measured = reference;
     let cal_params = calibration_parameters_for(m, opts);
@@ -732,7 +767,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective, second_look: None }))
 }
 
 /// A stage-1 trial and its fitted machine, or why it could not be run.
@@ -962,7 +997,9 @@ pub const REPLACEMENT_TRIALS: usize = 2;
 /// `(1 + floor_margin) ×` its seed floor, so something is missing that no single addition
 /// finds.
 fn stuck(d: &Diagnosis, opts: &LoopOptions) -> bool {
-    d.best.is_none() && d.floor_objective > 0.0 && above_floor(d.judged_objective(), d.floor_objective, opts)
+    // A second look's floor is of several realisations, with the ratio that goes with them.
+    let looked = d.second_look.as_ref().map(|s| LoopOptions { realisations: s.realisations, ..opts.clone() });
+    d.best.is_none() && d.floor_objective > 0.0 && above_floor(d.judged_objective(), d.floor_objective, looked.as_ref().unwrap_or(opts))
 }
 
 /// The replacements worth trying when the loop is stuck, best first, at most

@@ -27,6 +27,13 @@ pub enum EffectKind {
 }
 
 impl EffectKind {
+
+    /// Whether the effect's signature is drawn at random when the model is built (the slip
+    /// table's ball jitter, an extended fault's roughness), so that one realisation of the
+    /// model shows one draw of it, not its expected spectrum.
+    pub fn draws_at_random(self) -> bool {
+        matches!(self, EffectKind::Slip | EffectKind::ExtendedFault)
+    }
     /// Every effect, in catalogue order.
     pub const ALL: [EffectKind; 14] = [
         EffectKind::LoadZone,
