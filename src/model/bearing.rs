@@ -458,6 +458,16 @@ impl ForceElement for BearingElement {
 mod tests {
     use super::*;
 
+    /// Uniform draws in [0, 1) from a xorshift generator seeded with `x` (deterministic).
+    fn uniform(mut x: u64) -> impl FnMut() -> f64 {
+        move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     #[test]
     fn spall_profile_is_limited_by_ball_curvature() {
         let p = DepthProfile::Spall { length_m: 1e-3, depth_m: 1e-3, ball_radius_m: 4e-3 };
@@ -480,13 +490,7 @@ mod tests {
             DepthProfile::Spall { length_m: 0.178e-3, depth_m: 1e-4, ball_radius_m: 3.97e-3 },
             DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![0.0, 2e-6, -1e-6, 3e-6] },
         ];
-        let mut x: u64 = 0x9E3779B97F4A7C15;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniform(0x9E3779B97F4A7C15);
         for p in &profiles {
             let edge = p.length_m() / r;
             for turns in [-3.0, 0.0, 1.0, 57.0, 4.0e4] {
@@ -508,13 +512,7 @@ mod tests {
         // random cage and shaft angles (long runs too), with slip offsets, for inner, outer
         // and extended faults, and near the windows' edges; the windows must also pass over
         // most balls, or they save nothing.
-        let mut x: u64 = 0x2545F4914F6CDD1D;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniform(0x2545F4914F6CDD1D);
         let spall = DepthProfile::Spall { length_m: 0.533e-3, depth_m: 1e-4, ball_radius_m: 3.97e-3 };
         let extended = DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![0.0, 2e-6, -1e-6, 3e-6] };
         let sets = [
