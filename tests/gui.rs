@@ -485,8 +485,11 @@ fn model_loop_history_shows_the_floor() {
 
 /// When a search finds nothing significant while the model is still well above its floor, the
 /// view offers to replace an effect added earlier by a runner-up of the round that added it
-/// (the loop's replacement step, by hand); the click swaps them in the calibrated machine,
-/// records the swap on the stuck round and searches the new model.
+/// (the loop's replacement step, by hand); the click swaps them in the calibrated machine and
+/// searches the new model, and the answer is judged by the loop's rule. Here the stuck
+/// round's objective (8.0) is made up, far below what any model of 105 reaches, so the real
+/// search of the swapped model must be refused: the stuck model and its search come back,
+/// the stuck round says what was tried, and the replacement is not offered again.
 #[test]
 fn model_loop_offers_a_replacement_when_stuck() {
     use twinscope::compare::{Diagnosis, Fit, LoopOptions, Round};
@@ -517,16 +520,21 @@ fn model_loop_offers_a_replacement_when_stuck() {
     h.run_steps(2);
     let model = &h.state().session.model;
     assert!(!model.machine.effects.is_on(Unbalance) && model.machine.effects.is_on(Misalignment), "swapped: {:?}", model.machine.effects.enabled());
-    assert_eq!((model.history[1].removed, model.history[1].applied), (Some(Unbalance), Some(Misalignment)));
+    assert!(model.pending_replacement.is_some(), "judged when the search comes back");
     assert!(h.state().worker.busy(), "the new model is searched");
     wait_for(&mut h, "the search of the swapped model", 600, |a| !a.worker.busy());
+    h.run_steps(2);
     let s = h.state();
     assert!(s.session.last_error().is_none(), "errors: {:?}", s.session.last_error());
-    let h3 = &s.session.model.history;
-    assert_eq!(h3.len(), 3, "the swapped model's search is round 3");
-    assert!(h3[2].effects_on.contains(&Misalignment) && !h3[2].effects_on.contains(&Unbalance));
-    assert!(h3[2].objective.is_finite() && h3[2].ranking.iter().any(|x| x.0 == LoadZone), "the search ran: {:?}", h3[2]);
-    assert!(h.query_by_label("misalignment in place of unbalance").is_some(), "the rounds table says what changed");
+    let model = &s.session.model;
+    assert!(model.pending_replacement.is_none());
+    assert_eq!(model.machine, m, "the stuck model is back");
+    assert_eq!(model.result.as_ref().map(|r| r.started_from == m), Some(true), "and its search");
+    assert_eq!(model.history.len(), 2, "no round for a refused replacement");
+    assert_eq!((model.history[1].removed, model.history[1].applied), (None, None));
+    assert!(model.history[1].verdict.contains("replacements tried, none below 8.00") && model.history[1].verdict.contains("misalignment in place of unbalance reaches"), "{}", model.history[1].verdict);
+    assert_eq!(model.refused_replacements, vec![(Unbalance, Misalignment)]);
+    assert!(h.query_by_label("Try misalignment in place of unbalance").is_none(), "a refused replacement is not offered again");
 }
 
 /// A search with several model realisations judged its trials on held-out realisations: the

@@ -1075,12 +1075,70 @@ pub fn reachable_objective(j_cal: f64, trials: &[EffectTrial]) -> f64 {
     trials.iter().map(|t| t.objective_after).fold(j_cal, f64::min)
 }
 
-/// A replacement the loop keeps: what it reaches, the effect taken out and the one put in, the
-/// new machine, its diagnosis (calibrated machine, diagnosis) and the options it was run with.
+/// The judgement of one replacement ([`run_loop`]; the desktop app's by-hand replacement
+/// uses the same): `added` in place of `removed`, whose model's calibration gave `cal2` and
+/// whose diagnosis gave `d2`, against the stuck diagnosis it would replace.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplacementJudgement {
+    pub removed: EffectKind,
+    pub added: EffectKind,
+    /// What the replacement reaches with its best one addition ([`reachable_objective`]).
+    pub reaches: f64,
+    /// What the stuck model reaches with its own best one addition.
+    pub stuck_reaches: f64,
+    /// The seed scatter band the replacement must clear (`2√2 σ` of the stuck diagnosis).
+    pub tie: f64,
+    /// Set when the calibration fitted the added effect at an edge ([`fitted_not_a_finding`]).
+    pub edge_note: Option<&'static str>,
+}
+
+impl ReplacementJudgement {
+    /// Whether the replacement is kept: below the stuck model's reach by more than the seed
+    /// scatter, and its added effect not fitted at an edge.
+    pub fn kept(&self) -> bool {
+        self.edge_note.is_none() && self.reaches < self.stuck_reaches - self.tie
+    }
+
+    /// `"<added> in place of <removed> reaches <v>[, but <edge note>]"`.
+    pub fn tried_text(&self) -> String {
+        format!("{} in place of {} reaches {:.2}{}", self.added.name(), self.removed.name(), self.reaches, self.edge_note.map_or(String::new(), |n| format!(", but {n}")))
+    }
+
+    /// The note a stuck round's verdict gets for a kept replacement.
+    pub fn kept_text(&self) -> String {
+        format!(
+            "replacing {} by {} (fitted by the calibration) reaches objective {:.2} against {:.2}, each with its best one addition",
+            self.removed.name(),
+            self.added.name(),
+            self.reaches,
+            self.stuck_reaches
+        )
+    }
+}
+
+/// Judges replacing `removed` by `added` in the model of the stuck diagnosis `stuck`: the
+/// swapped model calibrated to `cal2` and diagnosed as `d2` (see [`ReplacementJudgement::kept`]).
+pub fn judge_replacement(stuck: &Diagnosis, removed: EffectKind, added: EffectKind, cal2: &Machine, d2: &Diagnosis) -> ReplacementJudgement {
+    ReplacementJudgement {
+        removed,
+        added,
+        reaches: reachable_objective(d2.judged_objective(), &d2.trials),
+        stuck_reaches: reachable_objective(stuck.judged_objective(), &stuck.trials),
+        tie: tie_width(stuck.objective_scatter),
+        edge_note: fitted_not_a_finding(added, cal2),
+    }
+}
+
+/// The note a stuck round's verdict gets when no replacement was kept.
+pub fn replacements_refused_text(stuck: &Diagnosis, tried: &[ReplacementJudgement]) -> String {
+    let reach = reachable_objective(stuck.judged_objective(), &stuck.trials);
+    let tie = tie_width(stuck.objective_scatter);
+    format!("replacements tried, none below {reach:.2} (this model with its best one addition) by the seed scatter (±{tie:.2}): {}", tried.iter().map(ReplacementJudgement::tried_text).collect::<Vec<_>>().join(", "))
+}
+
+/// A replacement the loop keeps: the new machine, its diagnosis (calibrated machine,
+/// diagnosis) and the options it was run with.
 struct Replacement {
-    reaches: f64,
-    removed: EffectKind,
-    added: EffectKind,
     machine: Machine,
     diagnosed: (Machine, Diagnosis),
     opts: LoopOptions,
@@ -1138,10 +1196,8 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             continue;
         }
         if r < rounds && stuck(&d, &opts) {
-            let tie = tie_width(d.objective_scatter);
-            let stuck_reaches = reachable_objective(d.judged_objective(), &d.trials);
-            let mut kept: Option<Replacement> = None;
-            let mut tried: Vec<String> = Vec::new();
+            let mut kept: Option<(ReplacementJudgement, Replacement)> = None;
+            let mut tried: Vec<ReplacementJudgement> = Vec::new();
             // The stuck round applied nothing, so the history before it holds every candidate.
             for (a, b) in replacement_candidates(&history, &current, &opts) {
                 let Ok(swapped) = swap_effect(&cal, a, b) else { continue };
@@ -1149,23 +1205,17 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 o.refit_effects.retain(|k| *k != a);
                 o.refit_effects.push(b);
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
-                let v = reachable_objective(d2.judged_objective(), &d2.trials);
-                let edge = fitted_not_a_finding(b, &cal2);
-                tried.push(format!("{} in place of {} reaches {v:.2}{}", b.name(), a.name(), edge.map_or(String::new(), |n| format!(", but {n}"))));
-                if edge.is_none() && v < stuck_reaches - tie && kept.as_ref().is_none_or(|k| v < k.reaches) {
-                    kept = Some(Replacement { reaches: v, removed: a, added: b, machine: swapped, diagnosed: (cal2, d2), opts: o });
+                let j = judge_replacement(&d, a, b, &cal2, &d2);
+                if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
+                    kept = Some((j.clone(), Replacement { machine: swapped, diagnosed: (cal2, d2), opts: o }));
                 }
+                tried.push(j);
             }
-            if let Some(Replacement { reaches: v, removed: a, added: b, machine: swapped, diagnosed: (cal2, d2), opts: o }) = kept {
-                round.verdict = format!(
-                    "{}; replacing {} by {} (fitted by the calibration) reaches objective {v:.2} against {stuck_reaches:.2}, each with its best one addition",
-                    d.verdict,
-                    a.name(),
-                    b.name(),
-                );
-                round.applied = Some(b);
-                round.removed = Some(a);
-                round.applied_values = effect_values(&cal2, b);
+            if let Some((j, Replacement { machine: swapped, diagnosed: (cal2, d2), opts: o })) = kept {
+                round.verdict = format!("{}; {}", d.verdict, j.kept_text());
+                round.applied = Some(j.added);
+                round.removed = Some(j.removed);
+                round.applied_values = effect_values(&cal2, j.added);
                 history.push(round);
                 current = swapped;
                 opts = o;
@@ -1174,7 +1224,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 continue;
             }
             if !tried.is_empty() {
-                round.verdict = format!("{}; replacements tried, none below {stuck_reaches:.2} (this model with its best one addition) by the seed scatter (±{tie:.2}): {}", d.verdict, tried.join(", "));
+                round.verdict = format!("{}; {}", d.verdict, replacements_refused_text(&d, &tried));
             }
         }
         history.push(round);
@@ -1489,6 +1539,37 @@ mod tests {
         assert_eq!(fitted_not_a_finding(CasingModes, &m), Some(OUTSIDE_BAND_NOTE));
         // A switch without a parameter is never pinned.
         assert_eq!(fitted_not_a_finding(NonlinearContact, &m), None);
+    }
+
+    #[test]
+    fn a_replacement_is_kept_only_below_the_stuck_reach_by_the_scatter_and_not_at_an_edge() {
+        use EffectKind::*;
+        let mut stuck = Diagnosis { objective_scatter: 0.2, trials: vec![trial(CasingModes, 17.9, 3.3, 16.1, 0.5)], ..Default::default() };
+        stuck.calibration.objective_after = 17.9;
+        // The stuck model reaches 16.1; the tie band is 2√2 × 0.2 = 0.57.
+        let swapped = |j_cal: f64, j_best: f64| {
+            let mut d = Diagnosis { trials: vec![trial(Misalignment, j_cal, 3.3, j_best, 0.4)], ..Default::default() };
+            d.calibration.objective_after = j_cal;
+            d
+        };
+        let mut m = crate::model::preset("mfs_inner").unwrap();
+        m.effects.enable(Unbalance);
+        Param::UnbalanceKgM.set(&mut m, 3e-4);
+        let j = judge_replacement(&stuck, Misalignment, Unbalance, &m, &swapped(15.8, 15.0));
+        assert!((j.stuck_reaches - 16.1).abs() < 1e-12 && (j.reaches - 15.0).abs() < 1e-12 && (j.tie - 0.5657).abs() < 1e-4);
+        assert!(j.kept(), "{j:?}");
+        assert!(j.kept_text().contains("replacing misalignment by unbalance") && j.kept_text().contains("15.00 against 16.10"), "{}", j.kept_text());
+        // Within the seed scatter of the stuck reach: refused, though lower.
+        let j = judge_replacement(&stuck, Misalignment, Unbalance, &m, &swapped(15.8, 15.6));
+        assert!(!j.kept() && j.reaches < j.stuck_reaches);
+        // Its calibrated model, without a better trial, counts too.
+        assert!(judge_replacement(&stuck, Misalignment, Unbalance, &m, &swapped(14.0, 14.5)).kept());
+        // Far below, but the calibration fitted the added unbalance at the top of its range.
+        Param::UnbalanceKgM.set(&mut m, 8.86e-3);
+        let j = judge_replacement(&stuck, Misalignment, Unbalance, &m, &swapped(12.0, 11.0));
+        assert!(!j.kept());
+        let note = replacements_refused_text(&stuck, std::slice::from_ref(&j));
+        assert!(note.contains("none below 16.10") && note.contains("unbalance in place of misalignment reaches 11.00, but its strength was fitted at the top"), "{note}");
     }
 
     #[test]

@@ -344,7 +344,7 @@ impl Workbench {
         let machine = self.session.model.machine.clone();
         let mut opts = self.settings.loop_options(jobs::compare_options_for(&self.session.chain));
         // Effects added in earlier rounds are re-fitted by the calibration, as `run_loop` does.
-        opts.refit_effects = crate::compare::diagnose::applied_effects(&self.session.model.history);
+        opts.refit_effects = self.session.model.refit_effects();
         if let Err(e) = opts.validate() {
             self.session.tell(Level::Error, format!("model loop settings: {e}"));
             return;
@@ -358,27 +358,14 @@ impl Workbench {
     }
 
     /// The loop's replacement step, by hand: `add` in place of `remove` in the calibrated
-    /// machine of the last search, recorded on the stuck round, then a new search.
+    /// machine of the last search, then a new search, judged by the loop's rule when it
+    /// comes back ([`ModelState::take_result`]).
     fn replace_effect(&mut self, remove: crate::model::EffectKind, add: crate::model::EffectKind, measured: usize) {
-        let Some(r) = self.session.model.result.as_ref() else {
-            self.session.tell(Level::Error, "no ranking yet: run Find missing effect first");
+        if let Err(e) = self.session.model.start_replacement(remove, add) {
+            self.session.tell(Level::Error, e);
             return;
-        };
-        let m = match crate::compare::diagnose::swap_effect(&r.calibrated, remove, add) {
-            Ok(m) => m,
-            Err(e) => {
-                self.session.tell(Level::Error, format!("{} in place of {} not tried: {e}", add.name(), remove.name()));
-                return;
-            }
-        };
-        let model = &mut self.session.model;
-        let stuck_round = model.history.last().map(|x| x.round).unwrap_or(0);
-        if let Some(last) = model.history.last_mut() {
-            last.applied = Some(add);
-            last.removed = Some(remove);
         }
-        model.replace_machine(m);
-        self.session.tell(Level::Info, format!("{} in place of {}: searching the new model; compare its objective with round {stuck_round}'s", add.name(), remove.name()));
+        self.session.tell(Level::Info, format!("{} in place of {}: searching the new model; it is kept if it reaches below the stuck model by more than the seed scatter", add.name(), remove.name()));
         self.find_missing_effect(measured);
     }
 
@@ -548,21 +535,9 @@ impl Workbench {
                 self.session.scf = Some(*r);
             }
             Event::Output(JobOutput::Loop(r)) => {
-                let d = &r.diagnosis;
-                self.session.tell(Level::Info, format!("find missing effect ({:.0} s): {}", r.seconds, d.verdict));
-                for (k, why) in &d.failed_trials {
-                    self.session.tell(Level::Error, format!("find missing effect: {} not ranked, its trial failed: {why}", k.name()));
+                for (level, text) in self.session.model.take_result(*r) {
+                    self.session.tell(level, text);
                 }
-                let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
-                let effects_on = r.started_from.effects.enabled();
-                let model = &mut self.session.model;
-                let round = Round::of_diagnosis(model.history.len() + 1, effects_on.clone(), d, env);
-                match model.history.last_mut() {
-                    // The same model again (after an Add, or a re-run): this search calibrates it.
-                    Some(last) if last.applied.is_none() && last.effects_on == effects_on => *last = Round { round: last.round, ..round },
-                    _ => model.history.push(round),
-                }
-                model.result = Some(*r);
             }
             Event::Output(JobOutput::SessionFile(f, from)) => self.restore(*f, &from),
             Event::Output(JobOutput::Comparison(c)) => {
@@ -619,6 +594,8 @@ impl Workbench {
         model.history = f.history.clone();
         model.result = None;
         model.simulated_id = None;
+        model.pending_replacement = None;
+        model.refused_replacements.clear();
         let ids: Vec<u64> = f.signals.iter().map(|_| self.session.next_signal_id()).collect();
         let saved = f.signals.clone();
         let selected = f.selected;

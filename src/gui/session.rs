@@ -154,6 +154,27 @@ pub struct ModelState {
     pub history: Vec<Round>,
     /// Id of the loop's last simulated signal (replaced by the next simulation).
     pub simulated_id: Option<u64>,
+    /// A replacement tried by hand, waiting for the search of its model.
+    pub pending_replacement: Option<PendingReplacement>,
+    /// Replacements (taken out, put in) tried by hand and not kept: not offered again.
+    pub refused_replacements: Vec<(EffectKind, EffectKind)>,
+}
+
+/// The loop's replacement step done by hand ([`ModelState::start_replacement`]): `added` in
+/// place of `removed` in the calibrated machine of the stuck search, judged when the search
+/// of `swapped` comes back, as `compare::run_loop` judges its own.
+#[derive(Debug, Clone)]
+pub struct PendingReplacement {
+    /// The effect taken out.
+    pub removed: EffectKind,
+    /// The effect put in its place.
+    pub added: EffectKind,
+    /// The model the replacement's search runs on.
+    pub swapped: Machine,
+    /// The stuck search, restored when the replacement is not kept.
+    pub stuck: Box<LoopResult>,
+    /// Index in the history of the stuck search's round.
+    pub stuck_round: usize,
 }
 
 impl ModelState {
@@ -161,7 +182,89 @@ impl ModelState {
     pub fn from_preset(name: &str) -> Result<Self, String> {
         let machine = crate::model::preset(name).map_err(|e| e.to_string())?;
         machine.validate().map_err(|e| e.to_string())?;
-        Ok(Self { preset: name.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None })
+        Ok(Self { preset: name.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new() })
+    }
+
+    /// The effects a search's calibration re-fits: those the history applied (as `run_loop`
+    /// does), with a pending replacement's swap.
+    pub fn refit_effects(&self) -> Vec<EffectKind> {
+        let mut on = crate::compare::diagnose::applied_effects(&self.history);
+        if let Some(p) = &self.pending_replacement {
+            on.retain(|k| *k != p.removed);
+            on.push(p.added);
+        }
+        on
+    }
+
+    /// The replacements to offer under the last search (`compare::diagnose::replacement_proposals`)
+    /// when it was run on the current machine, less those already refused.
+    pub fn replacement_proposals(&self) -> Vec<(EffectKind, EffectKind)> {
+        let Some(r) = self.result.as_ref().filter(|r| r.started_from == self.machine) else { return Vec::new() };
+        crate::compare::diagnose::replacement_proposals(&self.history, &self.machine, &r.diagnosis, &r.options).into_iter().filter(|x| !self.refused_replacements.contains(x)).collect()
+    }
+
+    /// Starts the replacement of `removed` by `added` in the last search's calibrated machine:
+    /// the machine becomes the swapped one, which the caller then searches. Err when there is
+    /// no search or the swapped machine is invalid (nothing changed).
+    pub fn start_replacement(&mut self, removed: EffectKind, added: EffectKind) -> Result<(), String> {
+        let Some(r) = self.result.as_ref() else { return Err("no ranking yet: run Find missing effect first".into()) };
+        let swapped = crate::compare::diagnose::swap_effect(&r.calibrated, removed, added).map_err(|e| format!("{} in place of {} not tried: {e}", added.name(), removed.name()))?;
+        let stuck_round = self.history.len().saturating_sub(1);
+        self.pending_replacement = Some(PendingReplacement { removed, added, swapped: swapped.clone(), stuck: Box::new(r.clone()), stuck_round });
+        self.replace_machine(swapped);
+        Ok(())
+    }
+
+    /// Takes a search's answer: a pending replacement is judged first
+    /// (`compare::diagnose::judge_replacement`, the loop's own rule). Kept, it is recorded on
+    /// the stuck round and the answer starts the next round; not kept, the note goes on the
+    /// stuck round and the stuck model and its search come back. Otherwise the answer
+    /// calibrates the last round (the same model again) or starts a new one. Returns what to
+    /// tell the user.
+    pub fn take_result(&mut self, r: LoopResult) -> Vec<(Level, String)> {
+        use crate::compare::diagnose::{effect_values, judge_replacement, replacements_refused_text};
+        let mut said = Vec::new();
+        if let Some(p) = self.pending_replacement.take() {
+            if r.started_from != p.swapped {
+                said.push((Level::Info, format!("the replacement of {} by {} was not judged: the search ran on another model", p.removed.name(), p.added.name())));
+            } else {
+                let j = judge_replacement(&p.stuck.diagnosis, p.removed, p.added, &r.calibrated, &r.diagnosis);
+                let stuck = self.history.get_mut(p.stuck_round);
+                if !j.kept() {
+                    let note = replacements_refused_text(&p.stuck.diagnosis, std::slice::from_ref(&j));
+                    said.push((Level::Info, format!("replacement not kept ({note}); back to the model before it")));
+                    if let Some(round) = stuck {
+                        round.verdict = format!("{}; {note}", round.verdict);
+                    }
+                    self.refused_replacements.push((p.removed, p.added));
+                    self.replace_machine(p.stuck.started_from.clone());
+                    self.result = Some(*p.stuck);
+                    return said;
+                }
+                said.push((Level::Info, format!("replacement kept: {}", j.kept_text())));
+                if let Some(round) = stuck {
+                    round.verdict = format!("{}; {}", round.verdict, j.kept_text());
+                    round.applied = Some(p.added);
+                    round.removed = Some(p.removed);
+                    round.applied_values = effect_values(&r.calibrated, p.added);
+                }
+            }
+        }
+        let d = &r.diagnosis;
+        said.push((Level::Info, format!("find missing effect ({:.0} s): {}", r.seconds, d.verdict)));
+        for (k, why) in &d.failed_trials {
+            said.push((Level::Error, format!("find missing effect: {} not ranked, its trial failed: {why}", k.name())));
+        }
+        let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
+        let effects_on = r.started_from.effects.enabled();
+        let round = Round::of_diagnosis(self.history.len() + 1, effects_on.clone(), d, env);
+        match self.history.last_mut() {
+            // The same model again (after an Add, or a re-run): this search calibrates it.
+            Some(last) if last.applied.is_none() && last.effects_on == effects_on => *last = Round { round: last.round, ..round },
+            _ => self.history.push(round),
+        }
+        self.result = Some(r);
+        said
     }
 
     /// Replaces the machine from outside the editor.
@@ -329,5 +432,76 @@ impl Session {
     pub fn replace_chain(&mut self, chain: Chain) {
         self.chain = chain;
         self.chain_revision += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::EffectKind::{CasingModes, Misalignment, Unbalance};
+
+    /// A search answer on `m` with calibrated objective `j`, floor 3.3 and seed scatter 0.2
+    /// (tie band 2√2 × 0.2 = 0.57), no trial significant.
+    fn answer(m: &Machine, j: f64) -> LoopResult {
+        let mut diagnosis = Diagnosis { floor_objective: 3.3, objective_scatter: 0.2, verdict: "nothing significant is missing".into(), ..Default::default() };
+        diagnosis.calibration.objective_after = j;
+        LoopResult { measured: "measured".into(), options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0 }
+    }
+
+    /// Round 1 applied an unbalance with a misalignment close behind; round 2 is stuck at 17.9.
+    fn stuck_state() -> (ModelState, Machine) {
+        let mut s = ModelState::from_preset("mfs_inner").unwrap();
+        let mut m = s.machine.clone();
+        let before = m.effects.enabled();
+        m.effects.enable(Unbalance);
+        s.history = vec![
+            Round { round: 1, effects_on: before, applied: Some(Unbalance), ranking: vec![(Unbalance, 10.0, 0.6), (Misalignment, 10.5, 0.5), (CasingModes, 12.0, 0.1)], ..Default::default() },
+            Round { round: 2, effects_on: m.effects.enabled(), verdict: "nothing significant is missing".into(), ..Default::default() },
+        ];
+        s.replace_machine(m.clone());
+        s.result = Some(answer(&m, 17.9));
+        (s, m)
+    }
+
+    #[test]
+    fn a_replacement_by_hand_is_judged_by_the_loop_rule_and_undone_when_not_kept() {
+        let (mut s, stuck) = stuck_state();
+        assert_eq!(s.replacement_proposals(), vec![(Unbalance, Misalignment)]);
+        s.start_replacement(Unbalance, Misalignment).unwrap();
+        let swapped = s.machine.clone();
+        assert!(swapped.effects.is_on(Misalignment) && !swapped.effects.is_on(Unbalance));
+        assert_eq!(s.refit_effects(), vec![Misalignment]);
+        // 17.5 is lower, but within the seed scatter of 17.9: not kept, and everything comes back.
+        let said = s.take_result(answer(&swapped, 17.5));
+        assert!(said.iter().any(|(_, t)| t.contains("replacement not kept") && t.contains("misalignment in place of unbalance reaches 17.50")), "{said:?}");
+        assert_eq!(s.machine, stuck);
+        assert_eq!(s.result.as_ref().unwrap().started_from, stuck);
+        assert_eq!(s.history.len(), 2);
+        assert_eq!((s.history[1].applied, s.history[1].removed), (None, None));
+        assert!(s.history[1].verdict.contains("replacements tried, none below 17.90"), "{}", s.history[1].verdict);
+        assert_eq!(s.refit_effects(), vec![Unbalance]);
+        // Not offered again.
+        assert_eq!(s.replacement_proposals(), vec![]);
+    }
+
+    #[test]
+    fn a_replacement_by_hand_that_clears_the_scatter_is_kept_and_starts_the_next_round() {
+        let (mut s, _) = stuck_state();
+        s.start_replacement(Unbalance, Misalignment).unwrap();
+        let swapped = s.machine.clone();
+        let said = s.take_result(answer(&swapped, 15.0));
+        assert!(said.iter().any(|(_, t)| t.contains("replacement kept") && t.contains("15.00 against 17.90")), "{said:?}");
+        assert_eq!(s.machine, swapped);
+        assert_eq!(s.history.len(), 3);
+        assert_eq!((s.history[1].applied, s.history[1].removed), (Some(Misalignment), Some(Unbalance)));
+        assert!(!s.history[1].applied_values.is_empty());
+        assert_eq!(s.history[2].objective, 15.0);
+        assert_eq!(s.refit_effects(), vec![Misalignment]);
+        // A search on another model does not judge the replacement.
+        let (mut s, stuck) = stuck_state();
+        s.start_replacement(Unbalance, Misalignment).unwrap();
+        let said = s.take_result(answer(&stuck, 15.0));
+        assert!(said.iter().any(|(_, t)| t.contains("was not judged")), "{said:?}");
+        assert_eq!((s.history[1].applied, s.history[1].removed), (None, None));
     }
 }

@@ -251,7 +251,7 @@ impl ModelLoopView {
             }
         });
         let current = session.model.machine == r.started_from;
-        let proposals = if current { crate::compare::diagnose::replacement_proposals(&session.model.history, &session.model.machine, d, &r.options) } else { Vec::new() };
+        let proposals = session.model.replacement_proposals();
         if !proposals.is_empty() {
             let reach = crate::compare::diagnose::reachable_objective(d.judged_objective(), &d.trials);
             ui.horizontal_wrapped(|ui| {
