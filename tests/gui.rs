@@ -456,6 +456,9 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     set(&mut h, "fit duration", 0.7);
     let o = h.state().settings.loop_options(Default::default());
     assert_eq!((o.realisations, o.fit_duration_s), (3, 0.7));
+    assert_eq!(o.random_effect_realisations, 0, "the second look is off by default");
+    set(&mut h, "second look for random effects", 4.0);
+    assert_eq!(h.state().settings.loop_options(Default::default()).random_effect_realisations, 4);
     // Beyond the range: the editor clamps to the library's limit.
     set(&mut h, "model realisations", 99.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);
@@ -465,6 +468,29 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.state_mut().settings.loop_realisations = 0;
     let e = h.state().settings.loop_options(Default::default()).validate().unwrap_err().to_string();
     assert!(e.contains("realisations"), "{e}");
+    h.state_mut().settings.loop_realisations = 1;
+    h.state_mut().settings.loop_random_effect_realisations = 17;
+    let e = h.state().settings.loop_options(Default::default()).validate().unwrap_err().to_string();
+    assert!(e.contains("random_effect_realisations"), "{e}");
+}
+
+/// A diagnosis that is a second look (a random effect led the search with one realisation)
+/// says so, with the realisations, the leader and the first search's verdict.
+#[test]
+fn model_loop_says_when_a_diagnosis_is_a_second_look() {
+    use twinscope::compare::{Diagnosis, Fit, LoopOptions, SecondLook};
+    use twinscope::gui::session::LoopResult;
+    let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::Slip]);
+    let m = h.state().session.model.machine.clone();
+    let name = h.state().session.signals[0].signal.name.clone();
+    {
+        let second_look = Some(SecondLook { realisations: 4, leader: twinscope::model::EffectKind::Slip, verdict_with_one: "nothing significant is missing (best trial: slip explains 12 %)".into() });
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, held_out_objective: Some(8.4), second_look, verdict: "slip: ...".into(), ..Default::default() };
+        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions { random_effect_realisations: 4, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0 });
+    }
+    h.run_steps(3);
+    assert!(h.query_by_label_contains("Second look with 4 realisations: slip led the search with one").is_some(), "the second look is shown");
+    assert!(h.query_by_label_contains("that search said: nothing significant is missing (best trial: slip explains 12 %)").is_some());
 }
 
 /// The model-loop view's history shows each round's seed floor next to its objective (what a

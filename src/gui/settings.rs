@@ -48,6 +48,9 @@ pub struct Settings {
     pub loop_path_correction_bands: usize,
     /// Model loop: model realisations averaged per evaluation (`LoopOptions::realisations`).
     pub loop_realisations: usize,
+    /// Model loop: realisations of the second look when a random effect leads a search with one
+    /// (`LoopOptions::random_effect_realisations`; 0 = off).
+    pub loop_random_effect_realisations: usize,
 }
 
 impl Default for Settings {
@@ -70,6 +73,7 @@ impl Default for Settings {
             loop_unbend_pinned: true,
             loop_path_correction_bands: 0,
             loop_realisations: LoopOptions::default().realisations,
+            loop_random_effect_realisations: LoopOptions::default().random_effect_realisations,
         }
     }
 }
@@ -126,6 +130,7 @@ impl Settings {
             candidates: self.loop_candidates.clone(),
             unbend_pinned: self.loop_unbend_pinned,
             realisations: self.loop_realisations,
+            random_effect_realisations: self.loop_random_effect_realisations,
             ..Default::default()
         }
     }

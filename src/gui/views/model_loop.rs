@@ -146,6 +146,9 @@ impl ModelLoopView {
                 let l = ui.label("model realisations").on_hover_text("average the spectra of this many model seeds in every evaluation, so a random effect (slip, a rough fault, noise) is fitted to its expected spectrum, not to one draw of it; with two or more, the trials are judged on as many held-out realisations no fit used; each evaluation costs this many simulations, run in parallel");
                 ui.add(egui::DragValue::new(&mut s.loop_realisations).range(1..=crate::compare::MAX_REALISATIONS)).labelled_by(l.id);
                 ui.end_row();
+                let l = ui.label("second look for random effects").on_hover_text("when a search with one realisation ranks slip or an extended fault first (effects drawn at random, fitted to one draw), do it again with this many realisations, judged held out, and take that answer (0 = off); other searches keep the cost of one realisation");
+                ui.add(egui::DragValue::new(&mut s.loop_random_effect_realisations).range(0..=crate::compare::MAX_REALISATIONS).custom_formatter(|v, _| if v < 2.0 { "off".into() } else { format!("{v:.0}") }).custom_parser(|t| if t.trim() == "off" { Some(0.0) } else { t.trim().parse().ok() })).labelled_by(l.id);
+                ui.end_row();
             });
             ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, also start the trials from the uncalibrated values")
                 .on_hover_text("each trial scans its effect on a grid and re-does the calibration with it (about seven times slower): for a model the calibration bent to stand in for what is missing");
@@ -232,6 +235,9 @@ impl ModelLoopView {
         ));
         if d.floor_objective == 0.0 {
             ui.add(egui::Label::new(RichText::new(format!("Note: {}", drawable(crate::compare::diagnose::ZERO_FLOOR_NOTE))).color(ui.visuals().warn_fg_color)).wrap());
+        }
+        if let Some(look) = &d.second_look {
+            ui.add(egui::Label::new(RichText::new(format!("Second look with {} realisations: {} led the search with one, where a random effect is fitted to one draw; that search said: {}", look.realisations, look.leader.name(), drawable(&look.verdict_with_one))).color(ui.visuals().warn_fg_color)).wrap());
         }
         if let Some(jh) = d.held_out_objective {
             ui.weak(format!("Judged on held-out realisations: the calibrated model scores {jh:.2} there ({:.2} on the realisations it was fitted to); the trials' numbers are held-out too", d.calibration.objective_after))
