@@ -243,8 +243,8 @@ struct SearchArgs {
     realisations: u16,
     /// A second look for random effects: when a search with one realisation ranks slip or a
     /// rough extended fault first, the search is done again with K realisations (judged held
-    /// out) and that answer is given; other rankings keep the cost of one. 0: off (the
-    /// default; README "Detection limits").
+    /// out) and that answer is given; other rankings keep the cost of one. 0: off (README
+    /// "Detection limits"; the default is 4).
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().random_effect_realisations as u16, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_REALISATIONS as i64))]
     random_effect_realisations: u16,
 }

@@ -456,9 +456,9 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     set(&mut h, "fit duration", 0.7);
     let o = h.state().settings.loop_options(Default::default());
     assert_eq!((o.realisations, o.fit_duration_s), (3, 0.7));
-    assert_eq!(o.random_effect_realisations, 0, "the second look is off by default");
-    set(&mut h, "second look for random effects", 4.0);
-    assert_eq!(h.state().settings.loop_options(Default::default()).random_effect_realisations, 4);
+    assert_eq!(o.random_effect_realisations, 4, "the second look is on by default, with four realisations");
+    set(&mut h, "second look for random effects", 0.0);
+    assert_eq!(h.state().settings.loop_options(Default::default()).random_effect_realisations, 0);
     // Beyond the range: the editor clamps to the library's limit.
     set(&mut h, "model realisations", 99.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);

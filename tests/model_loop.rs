@@ -91,7 +91,8 @@ fn quick_case(seed: u64, candidates: Vec<EffectKind>) -> (model::Machine, twinsc
     truth.seed = seed;
     truth.duration_s = 1.0;
     let measured = model::simulate(&truth).unwrap();
-    let mut opts = LoopOptions { fit_duration_s: 0.8, evaluations_per_parameter: 4, sweeps: 1, candidates, ..Default::default() };
+    // One realisation throughout: these quick searches test other things than the second look.
+    let mut opts = LoopOptions { fit_duration_s: 0.8, evaluations_per_parameter: 4, sweeps: 1, candidates, random_effect_realisations: 0, ..Default::default() };
     opts.compare.envelope_band_hz = [1800.0, 3000.0];
     (m, measured, opts)
 }

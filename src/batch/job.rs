@@ -207,7 +207,7 @@ pub struct LoopSpec {
     #[serde(default = "LoopSpec::default_realisations")]
     pub realisations: usize,
     /// Realisations of the second look when a random effect leads a one-realisation search
-    /// (`LoopOptions::random_effect_realisations`), 0 (off, the default) to 16.
+    /// (`LoopOptions::random_effect_realisations`), 0 (off) to 16; default: the library's (4).
     #[serde(default = "LoopSpec::default_random_effect_realisations")]
     pub random_effect_realisations: usize,
 }

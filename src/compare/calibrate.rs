@@ -363,7 +363,7 @@ pub struct LoopOptions {
     /// model such an effect is fitted low and judged with the model's own scatter in the error
     /// (README "Detection limits": one realisation chooses a 1.7 % slip nowhere, four choose it
     /// from 2 %), while every other ranking keeps the cost of one realisation. 0 or 1: off.
-    /// Default 0 (off).
+    /// Default 4 (adopted by the rule written before its runs, README "Detection limits").
     pub random_effect_realisations: usize,
 }
 
@@ -438,7 +438,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 0 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 
