@@ -1080,7 +1080,9 @@ pub fn reachable_objective(j_cal: f64, trials: &[EffectTrial]) -> f64 {
 /// whose diagnosis gave `d2`, against the stuck diagnosis it would replace.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReplacementJudgement {
+    /// The applied effect taken out.
     pub removed: EffectKind,
+    /// The runner-up put in its place.
     pub added: EffectKind,
     /// What the replacement reaches with its best one addition ([`reachable_objective`]).
     pub reaches: f64,
