@@ -1131,11 +1131,16 @@ pub fn judge_replacement(stuck: &Diagnosis, removed: EffectKind, added: EffectKi
     }
 }
 
-/// The note a stuck round's verdict gets when no replacement was kept.
-pub fn replacements_refused_text(stuck: &Diagnosis, tried: &[ReplacementJudgement]) -> String {
-    let reach = reachable_objective(stuck.judged_objective(), &stuck.trials);
-    let tie = tie_width(stuck.objective_scatter);
-    format!("replacements tried, none below {reach:.2} (this model with its best one addition) by the seed scatter (±{tie:.2}): {}", tried.iter().map(ReplacementJudgement::tried_text).collect::<Vec<_>>().join(", "))
+/// The note a stuck round's verdict gets when none of the replacements `tried` (judged
+/// against the same stuck diagnosis) was kept; None when none was tried.
+pub fn replacements_refused_text(tried: &[ReplacementJudgement]) -> Option<String> {
+    let first = tried.first()?;
+    Some(format!(
+        "replacements tried, none below {:.2} (this model with its best one addition) by the seed scatter (±{:.2}): {}",
+        first.stuck_reaches,
+        first.tie,
+        tried.iter().map(ReplacementJudgement::tried_text).collect::<Vec<_>>().join(", ")
+    ))
 }
 
 /// A replacement the loop keeps: the new machine, its diagnosis (calibrated machine,
@@ -1225,8 +1230,8 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 last = Some(d);
                 continue;
             }
-            if !tried.is_empty() {
-                round.verdict = format!("{}; {}", d.verdict, replacements_refused_text(&d, &tried));
+            if let Some(note) = replacements_refused_text(&tried) {
+                round.verdict = format!("{}; {note}", d.verdict);
             }
         }
         history.push(round);
@@ -1570,7 +1575,7 @@ mod tests {
         Param::UnbalanceKgM.set(&mut m, 8.86e-3);
         let j = judge_replacement(&stuck, Misalignment, Unbalance, &m, &swapped(12.0, 11.0));
         assert!(!j.kept());
-        let note = replacements_refused_text(&stuck, std::slice::from_ref(&j));
+        let note = replacements_refused_text(std::slice::from_ref(&j)).unwrap();
         assert!(note.contains("none below 16.10") && note.contains("unbalance in place of misalignment reaches 11.00, but its strength was fitted at the top"), "{note}");
     }
 

@@ -231,7 +231,7 @@ impl ModelState {
                 let j = judge_replacement(&p.stuck.diagnosis, p.removed, p.added, &r.calibrated, &r.diagnosis);
                 let stuck = self.history.get_mut(p.stuck_round);
                 if !j.kept() {
-                    let note = replacements_refused_text(&p.stuck.diagnosis, std::slice::from_ref(&j));
+                    let note = replacements_refused_text(std::slice::from_ref(&j)).unwrap_or_default();
                     said.push((Level::Info, format!("replacement not kept ({note}); back to the model before it")));
                     if let Some(round) = stuck {
                         round.verdict = format!("{}; {note}", round.verdict);
