@@ -215,6 +215,12 @@ struct SearchArgs {
     /// missing.
     #[arg(long)]
     no_unbend: bool,
+    /// Start every trial also from the uncalibrated values (its effect scanned on a grid,
+    /// then the plain trial's fit), pinned or not, and keep the better fit: for a calibration
+    /// that bent the model toward what is missing without reaching an edge. About twice the
+    /// stage-1 cost. Experimental, off by default.
+    #[arg(long)]
+    uncalibrated_start: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
     /// path the model does not describe. Spectral-shape effects (casing modes, sensor
@@ -262,7 +268,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, decision_rule, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, decision_rule, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }
@@ -589,6 +595,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     }
     if last.unbent {
         println!("  the trials also started from the uncalibrated values, not only from this bent calibration (--no-unbend turns this off)");
+    } else if opts.uncalibrated_start {
+        println!("  the trials also started from the uncalibrated values, their effect scanned (--uncalibrated-start)");
     } else if !cal.at_bound.is_empty() {
         println!("  (the trials started only from this bent calibration: --no-unbend)");
     }

@@ -194,6 +194,10 @@ pub struct LoopSpec {
     /// values (`LoopOptions::unbend_pinned`). Default true.
     #[serde(default = "LoopSpec::default_unbend_pinned")]
     pub unbend_pinned: bool,
+    /// Also start every trial from the uncalibrated values, pinned or not
+    /// (`LoopOptions::uncalibrated_start`, experimental). Default false.
+    #[serde(default)]
+    pub uncalibrated_start: bool,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
     #[serde(default)]
@@ -247,7 +251,7 @@ impl LoopSpec {
         if !(1..=20).contains(&self.rounds) {
             return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, decision_rule: self.decision_rule, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, decision_rule: self.decision_rule, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
@@ -502,6 +506,15 @@ mod tests {
         assert!(spec.options(&chain).unwrap().unbend_pinned);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_pinned = false").unwrap();
         assert!(!spec.options(&chain).unwrap().unbend_pinned);
+    }
+
+    #[test]
+    fn a_model_loop_starts_trials_from_the_uncalibrated_values_only_when_asked() {
+        let chain = Chain { name: "none".into(), description: String::new(), stages: Vec::new() };
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
+        assert!(!spec.options(&chain).unwrap().uncalibrated_start);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nuncalibrated_start = true").unwrap();
+        assert!(spec.options(&chain).unwrap().uncalibrated_start);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! evidence in the residual map for that effect's signature with a trial — switch it on, fit
 //! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
 
-use super::calibrate::{at_search_bound, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param};
+use super::calibrate::{at_search_bound, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param};
 use super::residual::{residual_map, ResidualMap};
 use super::{Comparison, Reference};
 use crate::kinematics::CharacteristicFrequency;
@@ -201,6 +201,11 @@ impl Diagnosis {
     /// Compare trials' `objective_after` with this one, not with the calibration's.
     pub fn judged_objective(&self) -> f64 {
         self.held_out_objective.unwrap_or(self.calibration.objective_after)
+    }
+
+    /// The calibrated model's envelope NRMSE (%), None when the envelope was not compared.
+    pub fn envelope_nrmse(&self) -> Option<f64> {
+        self.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2)
     }
 }
 
@@ -611,6 +616,19 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
             .sum();
         progress.expect(extra);
     }
+    // The lighter second start of `uncalibrated_start` (superseded by unbending).
+    let scanned_start = opts.uncalibrated_start && !unbent;
+    if scanned_start {
+        let extra: usize = candidates
+            .iter()
+            .filter(|k| !recalibrates(**k))
+            .map(|&k| {
+                let (t, _, scan) = unbent_start(k);
+                fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
+            })
+            .sum();
+        progress.expect(extra);
+    }
     let (c, _) = evaluate(&cal_m, measured, opts)?;
     progress.tick();
     let (fams, shaft) = machine_families(&cal_m);
@@ -664,16 +682,22 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
                 let (fm, f) = fit_trial(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, opts, progress).map_err(|e| e.to_string())?;
                 Ok((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
             };
+            // From the uncalibrated values, the effect's main parameter scanned, then the
+            // plain trial's fit (no calibration sweep).
+            let from_uncalibrated_scanned = || -> TrialOutcome {
+                let (t, _, scan) = unbent_start(k);
+                t.validate().map_err(|e| e.to_string())?;
+                let (fm, f) = fit_trial_scanning(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts, progress).map_err(|e| e.to_string())?;
+                Ok((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
+            };
             let outcome = if recalibrates(k) {
                 from_uncalibrated()
             } else if unbent {
                 // Both starts; the better fit is the trial (a start from the uncalibrated values
                 // with one sweep can end worse than the bent calibration's).
-                match rayon::join(from_calibrated, from_uncalibrated) {
-                    (Ok(a), Ok(b)) => Ok(if b.0.objective_after < a.0.objective_after { b } else { a }),
-                    (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
-                    (Err(e), Err(_)) => Err(e),
-                }
+                better_start(rayon::join(from_calibrated, from_uncalibrated))
+            } else if scanned_start {
+                better_start(rayon::join(from_calibrated, from_uncalibrated_scanned))
             } else {
                 from_calibrated()
             };
@@ -772,6 +796,16 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
 
 /// A stage-1 trial and its fitted machine, or why it could not be run.
 type TrialOutcome = Result<(EffectTrial, Machine), String>;
+
+/// Of a trial fitted from the calibrated model (`a`) and from another start (`b`), the one
+/// with the lower objective; either when the other failed.
+fn better_start((a, b): (TrialOutcome, TrialOutcome)) -> TrialOutcome {
+    match (a, b) {
+        (Ok(a), Ok(b)) => Ok(if b.0.objective_after < a.0.objective_after { b } else { a }),
+        (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
+        (Err(e), Err(_)) => Err(e),
+    }
+}
 
 /// Seed salt of the held-out realisations on which, with two or more realisations, the
 /// calibrated model and every trial are judged ([`Diagnosis::held_out_objective`]). With the
@@ -1185,7 +1219,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             Some(x) => x,
             None => diagnose_with(&current, &reference, &opts, progress)?,
         };
-        let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::INFINITY);
+        let env = d.envelope_nrmse().unwrap_or(f64::INFINITY);
         let mut round = Round { applied: d.best, ..Round::of_diagnosis(r, current.effects.enabled(), &d, env) };
         if let Some(k) = d.best {
             let mut next = cal.clone();

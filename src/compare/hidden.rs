@@ -327,7 +327,7 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
     let rank_of_hidden = hidden.and_then(|k| ranking.iter().position(|x| *x == k).map(|i| i + 1));
     // The trials' own "before" (on the held-out realisations when they were judged on them;
     // with one realisation the calibrated comparison's, as in `d.domains`).
-    let env_before = d.trials.first().map(|t| t.envelope_nrmse_before).or_else(|| d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2)).unwrap_or(f64::NAN);
+    let env_before = d.trials.first().map(|t| t.envelope_nrmse_before).or_else(|| d.envelope_nrmse()).unwrap_or(f64::NAN);
     let env_after = d.best.and_then(|k| d.trials.iter().find(|t| t.effect == k)).map(|t| t.envelope_nrmse_after).unwrap_or(env_before);
     Ok(CaseResult {
         hidden,

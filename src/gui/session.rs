@@ -255,7 +255,7 @@ impl ModelState {
         for (k, why) in &d.failed_trials {
             said.push((Level::Error, format!("find missing effect: {} not ranked, its trial failed: {why}", k.name())));
         }
-        let env = d.domains.iter().find(|x| x.0 == "envelope").map(|x| x.2).unwrap_or(f64::NAN);
+        let env = d.envelope_nrmse().unwrap_or(f64::NAN);
         let effects_on = r.started_from.effects.enabled();
         let round = Round::of_diagnosis(self.history.len() + 1, effects_on.clone(), d, env);
         match self.history.last_mut() {
