@@ -459,6 +459,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     assert_eq!(o.random_effect_realisations, 4, "the second look is on by default, with four realisations");
     set(&mut h, "second look for random effects", 0.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).random_effect_realisations, 0);
+    // The experimental second start from the uncalibrated values: off until ticked.
+    assert!(!o.uncalibrated_start);
+    h.get_by_label("second start: every trial also from the uncalibrated values, pinned or not (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).uncalibrated_start);
     // Beyond the range: the editor clamps to the library's limit.
     set(&mut h, "model realisations", 99.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);

@@ -43,6 +43,9 @@ pub struct Settings {
     /// Model loop: also start the trials from the uncalibrated values when the calibration pins
     /// a parameter at the edge of its range (`LoopOptions::unbend_pinned`).
     pub loop_unbend_pinned: bool,
+    /// Model loop: also start every trial from the uncalibrated values, pinned or not
+    /// (`LoopOptions::uncalibrated_start`, experimental).
+    pub loop_uncalibrated_start: bool,
     /// Model loop: transfer-path correction bands (`CompareOptions::path_correction_bands`;
     /// 0 = off).
     pub loop_path_correction_bands: usize,
@@ -71,6 +74,7 @@ impl Default for Settings {
             loop_sweeps: LoopOptions::default().sweeps,
             loop_candidates: Vec::new(),
             loop_unbend_pinned: true,
+            loop_uncalibrated_start: LoopOptions::default().uncalibrated_start,
             loop_path_correction_bands: 0,
             loop_realisations: LoopOptions::default().realisations,
             loop_random_effect_realisations: LoopOptions::default().random_effect_realisations,
@@ -129,6 +133,7 @@ impl Settings {
             sweeps: self.loop_sweeps,
             candidates: self.loop_candidates.clone(),
             unbend_pinned: self.loop_unbend_pinned,
+            uncalibrated_start: self.loop_uncalibrated_start,
             realisations: self.loop_realisations,
             random_effect_realisations: self.loop_random_effect_realisations,
             ..Default::default()

@@ -152,6 +152,8 @@ impl ModelLoopView {
             });
             ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, also start the trials from the uncalibrated values")
                 .on_hover_text("each trial scans its effect on a grid and re-does the calibration with it (about seven times slower): for a model the calibration bent to stand in for what is missing");
+            ui.checkbox(&mut s.loop_uncalibrated_start, "second start: every trial also from the uncalibrated values, pinned or not (experimental)")
+                .on_hover_text("each trial also scans its effect on a grid from the uncalibrated values and fits it as usual (about twice a plain trial's cost), and the better fit is kept: for a calibration that bent the model toward what is missing without reaching an edge");
             let mut all = s.loop_candidates.is_empty();
             if ui.checkbox(&mut all, "try every applicable effect the model lacks").changed() {
                 s.loop_candidates = if all { Vec::new() } else { EffectKind::ALL.into_iter().filter(|k| !machine.effects.is_on(*k) && Effects::applicable(*k, machine)).collect() };
