@@ -254,6 +254,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let ms = median_ms(1, || Ok(diagnose(&m, &meas, &opts, &|_, _| true).map(|_| ())?))?;
         let name = format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, transfer-path correction (16 bands)", meas.duration_s(), all.len());
         rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
+        // The same full search with every trial started a second time from the uncalibrated
+        // values (`LoopOptions::uncalibrated_start`, experimental).
+        let mut opts = LoopOptions { candidates: all.clone(), uncalibrated_start: true, ..Default::default() };
+        opts.compare.envelope_band_hz = [1800.0, 3000.0];
+        let ms = median_ms(1, || Ok(diagnose(&m, &meas, &opts, &|_, _| true).map(|_| ())?))?;
+        let name = format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, every trial also from the uncalibrated values", meas.duration_s(), all.len());
+        rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
     }
 
     rows.extend(display_rows(r));
