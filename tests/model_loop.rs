@@ -361,6 +361,15 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     assert!(r.applied.contains(&EffectKind::Misalignment), "applied {:?}", r.applied);
 }
 
+/// A hidden-effect case on the MFS inner-race rig, as `confusion --hide` draws it, with 10 s
+/// of "measurement": (model, measurement, true parameters, SNR dB).
+fn ten_second_case(hidden_effects: &[EffectKind], seed: u64) -> (model::Machine, twinscope::signal::Signal, Vec<(Param, f64)>, f64) {
+    let base = model::preset("mfs_inner").unwrap();
+    let (mut truth, model_m, true_params, snr) = hidden::make_case_hiding(&base, hidden_effects, seed);
+    truth.duration_s = 10.0;
+    (model_m, model::simulate(&truth).unwrap(), true_params, snr)
+}
+
 /// Seed 2302 of the pair table (casing_modes + misalignment, 5.6 dB): the calibration drives
 /// the fault depth to the floor of its range (5 µm, from 100 µm) and the damping up, and from
 /// that bent model no trial explains anything (misalignment: 0 %, README "Two hidden
@@ -369,10 +378,7 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
 /// larger of the two hidden effects, is found with its force near the truth.
 #[test]
 fn trials_from_the_uncalibrated_values_find_what_a_bent_calibration_hides() {
-    let base = model::preset("mfs_inner").unwrap();
-    let (mut truth, model_m, true_params, snr) = hidden::make_case_hiding(&base, &[EffectKind::CasingModes, EffectKind::Misalignment], 2302);
-    truth.duration_s = 10.0;
-    let measured = model::simulate(&truth).unwrap();
+    let (model_m, measured, true_params, snr) = ten_second_case(&[EffectKind::CasingModes, EffectKind::Misalignment], 2302);
     let opts = LoopOptions { unbend_pinned: true, candidates: vec![EffectKind::Misalignment, EffectKind::Unbalance, EffectKind::ExtendedFault, EffectKind::CasingModes], ..Default::default() };
     let (_, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
     eprintln!("true {true_params:?}, SNR {snr:.1} dB; pinned {:?}; {}", d.calibration.at_bound, d.verdict);
@@ -395,10 +401,7 @@ fn trials_from_the_uncalibrated_values_find_what_a_bent_calibration_hides() {
 /// with the load scanned, and that fit is the better one (README "Two hidden effects").
 #[test]
 fn an_uncalibrated_start_finds_the_load_a_bent_but_unpinned_calibration_hides() {
-    let base = model::preset("mfs_inner").unwrap();
-    let (mut truth, model_m, true_params, snr) = hidden::make_case_hiding(&base, &[EffectKind::BeltDrive, EffectKind::LoadZone], 2300);
-    truth.duration_s = 10.0;
-    let measured = model::simulate(&truth).unwrap();
+    let (model_m, measured, true_params, snr) = ten_second_case(&[EffectKind::BeltDrive, EffectKind::LoadZone], 2300);
     let true_load = true_params.iter().find(|p| p.0 == Param::RadialLoadN).unwrap().1;
     let run = |uncalibrated_start: bool| {
         let opts = LoopOptions { uncalibrated_start, candidates: vec![EffectKind::LoadZone], random_effect_realisations: 0, ..Default::default() };

@@ -605,26 +605,20 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
         let scan: Vec<Param> = Param::main_of_effect(k).into_iter().collect();
         (t, ps, scan)
     };
-    if unbent {
+    // The second start of every plain trial: unbending's (with a calibration sweep), or the
+    // lighter one of `uncalibrated_start`, which unbending supersedes.
+    let scanned_start = opts.uncalibrated_start && !unbent;
+    if unbent || scanned_start {
         let extra: usize = candidates
             .iter()
             .filter(|k| !recalibrates(**k))
             .map(|&k| {
                 let (t, ps, scan) = unbent_start(k);
-                fit_evaluations(&t, &ps, &scan, 1, opts)
-            })
-            .sum();
-        progress.expect(extra);
-    }
-    // The lighter second start of `uncalibrated_start` (superseded by unbending).
-    let scanned_start = opts.uncalibrated_start && !unbent;
-    if scanned_start {
-        let extra: usize = candidates
-            .iter()
-            .filter(|k| !recalibrates(**k))
-            .map(|&k| {
-                let (t, _, scan) = unbent_start(k);
-                fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
+                if unbent {
+                    fit_evaluations(&t, &ps, &scan, 1, opts)
+                } else {
+                    fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
+                }
             })
             .sum();
         progress.expect(extra);
