@@ -239,28 +239,26 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let mut m = twinscope::model::preset("cwru_6205_inner")?;
         m.effects.enable(EffectKind::Noise);
         let all: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, &m)).collect();
-        for n in [3, 6, all.len()] {
-            let mut opts = LoopOptions { candidates: all[..n.min(all.len())].to_vec(), ..Default::default() };
+        // One full search with `opts` (the CWRU demodulation band set here), timed once.
+        let mut search_row = |mut opts: LoopOptions, name: String| -> Result<()> {
             opts.compare.envelope_band_hz = [1800.0, 3000.0];
             let ms = median_ms(1, || Ok(diagnose(&m, &meas, &opts, &|_, _| true).map(|_| ())?))?;
-            let name = format!("missing-effect search, {:.0}-s CWRU record, {n} candidate effects (calibrate + trials)", meas.duration_s());
             rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
+            Ok(())
+        };
+        for n in [3, 6, all.len()] {
+            let opts = LoopOptions { candidates: all[..n.min(all.len())].to_vec(), ..Default::default() };
+            search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {n} candidate effects (calibrate + trials)", meas.duration_s()))?;
         }
         // The same full search with the transfer-path correction (16 bands) fitted to every
         // evaluation: one more Welch PSD and one FFT filter per evaluation.
         let mut opts = LoopOptions { candidates: all.clone(), ..Default::default() };
-        opts.compare.envelope_band_hz = [1800.0, 3000.0];
         opts.compare.path_correction_bands = 16;
-        let ms = median_ms(1, || Ok(diagnose(&m, &meas, &opts, &|_, _| true).map(|_| ())?))?;
-        let name = format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, transfer-path correction (16 bands)", meas.duration_s(), all.len());
-        rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
+        search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, transfer-path correction (16 bands)", meas.duration_s(), all.len()))?;
         // The same full search with every trial started a second time from the uncalibrated
         // values (`LoopOptions::uncalibrated_start`, experimental).
-        let mut opts = LoopOptions { candidates: all.clone(), uncalibrated_start: true, ..Default::default() };
-        opts.compare.envelope_band_hz = [1800.0, 3000.0];
-        let ms = median_ms(1, || Ok(diagnose(&m, &meas, &opts, &|_, _| true).map(|_| ())?))?;
-        let name = format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, every trial also from the uncalibrated values", meas.duration_s(), all.len());
-        rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
+        let opts = LoopOptions { candidates: all.clone(), uncalibrated_start: true, ..Default::default() };
+        search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, every trial also from the uncalibrated values", meas.duration_s(), all.len()))?;
     }
 
     rows.extend(display_rows(r));

@@ -665,6 +665,13 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
                 let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
                 Ok((make_trial(k, &fm, &f, &released), fm))
             };
+            // The plain trial's fit from `t` (the effect's parameters, then the noise level
+            // refined), each of `scan` first scanned on a grid.
+            let plain_fit = |t: Machine, scan: &[Param]| -> TrialOutcome {
+                t.validate().map_err(|e| e.to_string())?;
+                let (fm, f) = fit_trial_scanning(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, scan, opts, progress).map_err(|e| e.to_string())?;
+                Ok((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
+            };
             // From the calibrated model, the effect fitted and the noise level re-fitted.
             let from_calibrated = || -> TrialOutcome {
                 let mut t = cal_m.clone();
@@ -672,17 +679,13 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
                 if k == EffectKind::PathModulation {
                     set_path_modulation_to_shaft_rate(&mut t);
                 }
-                t.validate().map_err(|e| e.to_string())?;
-                let (fm, f) = fit_trial(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, opts, progress).map_err(|e| e.to_string())?;
-                Ok((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
+                plain_fit(t, &[])
             };
             // From the uncalibrated values, the effect's main parameter scanned, then the
             // plain trial's fit (no calibration sweep).
             let from_uncalibrated_scanned = || -> TrialOutcome {
                 let (t, _, scan) = unbent_start(k);
-                t.validate().map_err(|e| e.to_string())?;
-                let (fm, f) = fit_trial_scanning(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts, progress).map_err(|e| e.to_string())?;
-                Ok((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
+                plain_fit(t, &scan)
             };
             let outcome = if recalibrates(k) {
                 from_uncalibrated()
