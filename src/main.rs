@@ -630,6 +630,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         if let Some(note) = t.not_a_finding_note() {
             println!("    {:<18} {note}", "");
         }
+        if t.from_uncalibrated {
+            println!("    {:<18} its best fit started from the uncalibrated values, not from the calibration", "");
+        }
     }
     for (k, why) in &last.failed_trials {
         println!("    {:<18} not ranked: its trial failed: {why}", k.name());

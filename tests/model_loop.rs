@@ -416,6 +416,7 @@ fn an_uncalibrated_start_finds_the_load_a_bent_but_unpinned_calibration_hides() 
     assert!(load(&plain) < 0.3 * true_load, "from the bent calibration the load takes {:.1} N (true {true_load:.1} N)", load(&plain));
     assert!((0.5..2.0).contains(&(load(&started) / true_load)), "from the uncalibrated values {:.1} N, true {true_load:.1} N", load(&started));
     assert!(started.objective_after < 0.8 * plain.objective_after, "{:.2} against {:.2}", started.objective_after, plain.objective_after);
+    assert!(!plain.from_uncalibrated && started.from_uncalibrated, "the trial says which start won");
 }
 
 /// Every evaluation of the second start is expected and reported.

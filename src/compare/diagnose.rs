@@ -81,6 +81,11 @@ pub struct EffectTrial {
     /// held-out ones. None with one realisation, where the trial is judged on its fit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub objective_fitted: Option<f64>,
+    /// The fit that won started from the round's uncalibrated values, not from the calibrated
+    /// model: a trial that re-does the calibration always does; with unbending
+    /// ([`Diagnosis::unbent`]) or `LoopOptions::uncalibrated_start` any trial may.
+    #[serde(default)]
+    pub from_uncalibrated: bool,
 }
 
 /// What the CLI and the app print when a diagnosis's floor is 0: nothing in the model is
@@ -650,7 +655,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
         let (reduction, explained) = shares(j0, j, floor);
         let (ev, ev_share) = evidence(k, &map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None });
         let summary = trial_summary(k, &ev, parameter, &extra, (env0, env), (j0, j));
-        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None }
+        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None, from_uncalibrated: false }
     };
     // Stage 1: every candidate, its own parameters fitted and the noise level re-fitted (a
     // transfer-path effect re-does the calibration with it, see [`recalibrates`]).
@@ -663,7 +668,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
                 t.validate().map_err(|e| e.to_string())?;
                 let (fm, f) = fit_scanning(&t, measured, &ps, &scan, 1, opts, progress).map_err(|e| e.to_string())?;
                 let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
-                Ok((make_trial(k, &fm, &f, &released), fm))
+                Ok((EffectTrial { from_uncalibrated: true, ..make_trial(k, &fm, &f, &released) }, fm))
             };
             // The plain trial's fit from `t` (the effect's parameters, then the noise level
             // refined), each of `scan` first scanned on a grid.
@@ -725,7 +730,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
             Ok((fm2, f2)) if f2.objective_after < t1.objective_after => {
                 let mut rel = TRIAL_REFINE.to_vec();
                 rel.extend(released.iter().copied().filter(|p| !TRIAL_REFINE.contains(p)));
-                (make_trial(t1.effect, &fm2, &f2, &rel), fm2)
+                (EffectTrial { from_uncalibrated: t1.from_uncalibrated, ..make_trial(t1.effect, &fm2, &f2, &rel) }, fm2)
             }
             _ => (t1, fm),
         })
@@ -794,12 +799,14 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
 /// A stage-1 trial and its fitted machine, or why it could not be run.
 type TrialOutcome = Result<(EffectTrial, Machine), String>;
 
-/// Of a trial fitted from the calibrated model (`a`) and from another start (`b`), the one
-/// with the lower objective; either when the other failed.
+/// Of a trial fitted from the calibrated model (`a`) and from the uncalibrated values (`b`),
+/// the one with the lower objective (marked [`EffectTrial::from_uncalibrated`] when it is
+/// `b`); either when the other failed.
 fn better_start((a, b): (TrialOutcome, TrialOutcome)) -> TrialOutcome {
     match (a, b) {
-        (Ok(a), Ok(b)) => Ok(if b.0.objective_after < a.0.objective_after { b } else { a }),
-        (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
+        (Ok(a), Ok((b, fb))) => Ok(if b.objective_after < a.0.objective_after { (EffectTrial { from_uncalibrated: true, ..b }, fb) } else { a }),
+        (Ok(a), Err(_)) => Ok(a),
+        (Err(_), Ok((b, fb))) => Ok((EffectTrial { from_uncalibrated: true, ..b }, fb)),
         (Err(e), Err(_)) => Err(e),
     }
 }
@@ -1303,7 +1310,24 @@ mod tests {
             objective_without_effect: None,
             effect_explained: None,
             objective_fitted: None,
+            from_uncalibrated: false,
         }
+    }
+
+    #[test]
+    fn the_better_start_is_kept_and_marked_when_it_is_the_uncalibrated_one() {
+        let m = crate::model::preset("cwru_6205_inner").unwrap();
+        let out = |j: f64| -> TrialOutcome { Ok((trial(EffectKind::LoadZone, 10.0, 2.0, j, 0.0), m.clone())) };
+        let failed = || -> TrialOutcome { Err("invalid machine".into()) };
+        let (t, _) = better_start((out(5.0), out(4.0))).unwrap();
+        assert_eq!((t.objective_after, t.from_uncalibrated), (4.0, true));
+        let (t, _) = better_start((out(4.0), out(5.0))).unwrap();
+        assert_eq!((t.objective_after, t.from_uncalibrated), (4.0, false));
+        // A tie keeps the calibrated start.
+        assert!(!better_start((out(4.0), out(4.0))).unwrap().0.from_uncalibrated);
+        assert!(better_start((failed(), out(6.0))).unwrap().0.from_uncalibrated);
+        assert!(!better_start((out(6.0), failed())).unwrap().0.from_uncalibrated);
+        assert_eq!(better_start((failed(), failed())).unwrap_err(), "invalid machine");
     }
 
     #[test]

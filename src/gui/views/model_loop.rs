@@ -328,7 +328,8 @@ impl ModelLoopView {
                 let fitted = if fitted.is_empty() { "a switch".to_string() } else { fitted.join(", ") };
                 let itself = t.effect_explained.map_or(String::new(), |e| format!("; switching it off again in the fitted model costs {:.0} %", e * 100.0));
                 let edge = t.not_a_finding_note().map_or(String::new(), |note| format!("; {note}"));
-                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
+                let start = if t.from_uncalibrated { "; its best fit started from the uncalibrated values" } else { "" };
+                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}{start}", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
             }
         });
     }
