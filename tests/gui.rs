@@ -498,6 +498,49 @@ fn model_loop_says_when_a_diagnosis_is_a_second_look() {
     assert!(h.query_by_label_contains("that search said: nothing significant is missing (best trial: slip explains 12 %)").is_some());
 }
 
+/// The evidence list says which trial's best fit started from the uncalibrated values (the
+/// second start of unbending or of `LoopOptions::uncalibrated_start`) and no more.
+#[test]
+fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
+    use twinscope::compare::{Diagnosis, EffectTrial, Fit, LoopOptions, Param};
+    use twinscope::gui::session::LoopResult;
+    use twinscope::model::EffectKind::{self, *};
+    let mut h = model_loop_on_105(vec![LoadZone, Unbalance]);
+    let m = h.state().session.model.machine.clone();
+    let name = h.state().session.signals[0].signal.name.clone();
+    let trial = |effect: EffectKind, parameter: (Param, f64), objective_after: f64, from_uncalibrated: bool| EffectTrial {
+        effect,
+        parameter: Some(parameter),
+        extra_parameters: vec![],
+        objective_before: 8.0,
+        objective_after,
+        envelope_nrmse_before: 4.0,
+        envelope_nrmse_after: 2.0,
+        domains: vec![],
+        reduction: (8.0 - objective_after) / 8.0,
+        explained: (8.0 - objective_after) / 6.0,
+        evidence: "shaft (30.0 Hz) in the measurement".into(),
+        evidence_share: 40.0,
+        tied_with_best: false,
+        outside_band: false,
+        pinned: None,
+        summary: String::new(),
+        objective_without_effect: None,
+        effect_explained: None,
+        objective_fitted: None,
+        from_uncalibrated,
+    };
+    {
+        let trials = vec![trial(LoadZone, (Param::RadialLoadN, 86.0), 3.0, true), trial(Unbalance, (Param::UnbalanceKgM, 3e-4), 7.0, false)];
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, trials, best: Some(LoadZone), verdict: "load_zone: ...".into(), ..Default::default() };
+        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions { uncalibrated_start: true, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0 });
+    }
+    h.run_steps(3);
+    let marked = labels_containing(&h, "its best fit started from the uncalibrated values");
+    assert_eq!(marked.len(), 1, "{marked:?}");
+    assert!(marked[0].starts_with("1. load_zone"), "{marked:?}");
+}
+
 /// The model-loop view's history shows each round's seed floor next to its objective (what a
 /// perfect model would still score), and "-" for a round recorded from a trial's fit.
 #[test]
