@@ -403,15 +403,31 @@ fn trials_from_the_uncalibrated_values_find_what_a_bent_calibration_hides() {
 fn an_uncalibrated_start_finds_the_load_a_bent_but_unpinned_calibration_hides() {
     let (model_m, measured, true_params, snr) = ten_second_case(&[EffectKind::BeltDrive, EffectKind::LoadZone], 2300);
     let true_load = true_params.iter().find(|p| p.0 == Param::RadialLoadN).unwrap().1;
-    let run = |uncalibrated_start: bool| {
-        let opts = LoopOptions { uncalibrated_start, candidates: vec![EffectKind::LoadZone], random_effect_realisations: 0, ..Default::default() };
-        let (_, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
+    let run = |uncalibrated_start: bool, recalibrate_top: usize| {
+        let opts = LoopOptions { uncalibrated_start, recalibrate_top, candidates: vec![EffectKind::LoadZone], random_effect_realisations: 0, ..Default::default() };
+        let (cal, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
         eprintln!("uncalibrated_start {uncalibrated_start}: true load {true_load:.1} N, SNR {snr:.1} dB; pinned {:?}; {}", d.calibration.at_bound, d.verdict);
         assert!(d.calibration.at_bound.is_empty() && !d.unbent, "the calibration pinned {:?}", d.calibration.at_bound);
-        d.trials[0].clone()
+        // Applied to the calibrated model (what the loop and the app's "Add" do), the trial
+        // gives the machine it was scored with, whichever start won.
+        let t = d.trials[0].clone();
+        let mut added = cal.clone();
+        twinscope::compare::apply_trial(&mut added, &t);
+        let reference = twinscope::compare::Reference::new(&measured, &opts.compare).unwrap();
+        let (c, _) = twinscope::compare::evaluate(&added, &reference, &opts).unwrap();
+        let j = twinscope::compare::objective(&c, &opts.weights);
+        assert!((j - t.objective_after).abs() <= 1e-9 * t.objective_after, "applied: {j:.4}, the trial scored {:.4} (from the uncalibrated values: {})", t.objective_after, t.from_uncalibrated);
+        let reported: Vec<_> = t.parameter.iter().chain(&t.extra_parameters).map(|p| p.0).collect();
+        let distinct: std::collections::HashSet<_> = reported.iter().collect();
+        assert_eq!(distinct.len(), reported.len(), "each parameter reported once: {reported:?}");
+        t
     };
-    let plain = run(false);
-    let started = run(true);
+    let top = LoopOptions::default().recalibrate_top;
+    let plain = run(false, top);
+    let started = run(true, top);
+    // Without stage 2's re-fit of every calibrated parameter, too, the trial from the
+    // uncalibrated values carries the values it was scored with.
+    assert!(run(true, 0).from_uncalibrated);
     let load = |t: &twinscope::compare::EffectTrial| t.parameter.unwrap().1;
     assert!(load(&plain) < 0.3 * true_load, "from the bent calibration the load takes {:.1} N (true {true_load:.1} N)", load(&plain));
     assert!((0.5..2.0).contains(&(load(&started) / true_load)), "from the uncalibrated values {:.1} N, true {true_load:.1} N", load(&started));

@@ -676,11 +676,12 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
                 Ok((EffectTrial { from_uncalibrated: true, ..make_trial(k, &fm, &f, &released) }, fm))
             };
             // The plain trial's fit from `t` (the effect's parameters, then the noise level
-            // refined), each of `scan` first scanned on a grid.
-            let plain_fit = |t: Machine, scan: &[Param]| -> TrialOutcome {
+            // refined), each of `scan` first scanned on a grid; `reported` are the parameters
+            // besides the effect's that the trial carries (see `from_uncalibrated_scanned`).
+            let plain_fit = |t: Machine, scan: &[Param], reported: &[Param]| -> TrialOutcome {
                 t.validate().map_err(|e| e.to_string())?;
                 let (fm, f) = fit_trial_scanning(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, scan, opts, progress).map_err(|e| e.to_string())?;
-                Ok((make_trial(k, &fm, &f, &TRIAL_REFINE), fm))
+                Ok((make_trial(k, &fm, &f, reported), fm))
             };
             // From the calibrated model, the effect fitted and the noise level re-fitted.
             let from_calibrated = || -> TrialOutcome {
@@ -689,13 +690,16 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
                 if k == EffectKind::PathModulation {
                     set_path_modulation_to_shaft_rate(&mut t);
                 }
-                plain_fit(t, &[])
+                plain_fit(t, &[], &TRIAL_REFINE)
             };
             // From the uncalibrated values, the effect's main parameter scanned, then the
-            // plain trial's fit (no calibration sweep).
+            // plain trial's fit (no calibration sweep). The trial carries the calibration
+            // parameters at those values too, so that applying it to the calibrated model
+            // ([`apply_trial`]) gives the machine it was scored with.
             let from_uncalibrated_scanned = || -> TrialOutcome {
                 let (t, _, scan) = unbent_start(k);
-                plain_fit(t, &scan)
+                let reported: Vec<Param> = TRIAL_REFINE.iter().chain(cal_params.iter().filter(|p| !TRIAL_REFINE.contains(p))).copied().collect();
+                plain_fit(t, &scan, &reported)
             };
             let outcome = if recalibrates(k) {
                 from_uncalibrated()
