@@ -698,8 +698,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
             // ([`apply_trial`]) gives the machine it was scored with.
             let from_uncalibrated_scanned = || -> TrialOutcome {
                 let (t, _, scan) = unbent_start(k);
-                let reported: Vec<Param> = TRIAL_REFINE.iter().chain(cal_params.iter().filter(|p| !TRIAL_REFINE.contains(p))).copied().collect();
-                plain_fit(t, &scan, &reported)
+                plain_fit(t, &scan, &refined_and(&cal_params))
             };
             let outcome = if recalibrates(k) {
                 from_uncalibrated()
@@ -737,9 +736,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
         .into_par_iter()
         .map(|(t1, fm)| match fit_trial(&fm, measured, &[], &released, opts, progress) {
             Ok((fm2, f2)) if f2.objective_after < t1.objective_after => {
-                let mut rel = TRIAL_REFINE.to_vec();
-                rel.extend(released.iter().copied().filter(|p| !TRIAL_REFINE.contains(p)));
-                (EffectTrial { from_uncalibrated: t1.from_uncalibrated, ..make_trial(t1.effect, &fm2, &f2, &rel) }, fm2)
+                (EffectTrial { from_uncalibrated: t1.from_uncalibrated, ..make_trial(t1.effect, &fm2, &f2, &refined_and(&released)) }, fm2)
             }
             _ => (t1, fm),
         })
@@ -805,6 +802,12 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
     Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective, second_look: None }))
 }
 
+/// [`TRIAL_REFINE`] and then each of `others` not already in it: the parameters besides the
+/// effect's own that a trial carries.
+fn refined_and(others: &[Param]) -> Vec<Param> {
+    TRIAL_REFINE.iter().chain(others.iter().filter(|p| !TRIAL_REFINE.contains(p))).copied().collect()
+}
+
 /// A stage-1 trial and its fitted machine, or why it could not be run.
 type TrialOutcome = Result<(EffectTrial, Machine), String>;
 
@@ -812,10 +815,10 @@ type TrialOutcome = Result<(EffectTrial, Machine), String>;
 /// the one with the lower objective (marked [`EffectTrial::from_uncalibrated`] when it is
 /// `b`); either when the other failed.
 fn better_start((a, b): (TrialOutcome, TrialOutcome)) -> TrialOutcome {
+    let b = b.map(|(t, m)| (EffectTrial { from_uncalibrated: true, ..t }, m));
     match (a, b) {
-        (Ok(a), Ok((b, fb))) => Ok(if b.objective_after < a.0.objective_after { (EffectTrial { from_uncalibrated: true, ..b }, fb) } else { a }),
-        (Ok(a), Err(_)) => Ok(a),
-        (Err(_), Ok((b, fb))) => Ok((EffectTrial { from_uncalibrated: true, ..b }, fb)),
+        (Ok(a), Ok(b)) => Ok(if b.0.objective_after < a.0.objective_after { b } else { a }),
+        (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
         (Err(e), Err(_)) => Err(e),
     }
 }
