@@ -233,6 +233,12 @@ struct SearchArgs {
     /// experimental, not adopted: it made a false claim on a fresh pair the default does not).
     #[arg(long, value_name = "RULE", default_value = "floor_margin", value_parser = ["floor_margin", "scatter"])]
     decision_rule: String,
+    /// The floor margin m of `floor_margin`: something can be missing only when the calibrated
+    /// objective is at least (1 + m) × its seed floor with one realisation (√(1 + 2((1 + m)² − 1))
+    /// × with several). Lower finds effects nearer the floor and risks claiming a misfit of the
+    /// base model (README "A second start for every trial").
+    #[arg(long, value_name = "M", default_value_t = LoopOptions::default().floor_margin, value_parser = parse_floor_margin)]
+    floor_margin: f64,
     /// Model time simulated per evaluation, s (at most the measurement's length). Longer
     /// evaluations lower the seed floor, and every evaluation costs proportionally more.
     #[arg(long, value_name = "S", default_value_t = LoopOptions::default().fit_duration_s, value_parser = parse_fit_duration_s)]
@@ -264,11 +270,19 @@ fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {
     Ok(v)
 }
 
+fn parse_floor_margin(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.parse().map_err(|e| format!("{s}: {e}"))?;
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(format!("{s}: give a finite margin ≥ 0 (the default is {})", LoopOptions::default().floor_margin));
+    }
+    Ok(v)
+}
+
 impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, decision_rule, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

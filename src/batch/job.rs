@@ -206,6 +206,10 @@ pub struct LoopSpec {
     /// `"scatter"` (experimental).
     #[serde(default)]
     pub decision_rule: crate::compare::DecisionRule,
+    /// The floor margin of `"floor_margin"` (`LoopOptions::floor_margin`), ≥ 0. Default: the
+    /// library's (0.5).
+    #[serde(default = "LoopSpec::default_floor_margin")]
+    pub floor_margin: f64,
     /// Model realisations averaged per evaluation (`LoopOptions::realisations`), 1–16.
     /// Default: the library's.
     #[serde(default = "LoopSpec::default_realisations")]
@@ -233,6 +237,10 @@ impl LoopSpec {
         crate::compare::LoopOptions::default().random_effect_realisations
     }
 
+    fn default_floor_margin() -> f64 {
+        crate::compare::LoopOptions::default().floor_margin
+    }
+
     fn default_fit_duration_s() -> f64 {
         crate::compare::LoopOptions::default().fit_duration_s
     }
@@ -251,7 +259,7 @@ impl LoopSpec {
         if !(1..=20).contains(&self.rounds) {
             return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, decision_rule: self.decision_rule, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
@@ -527,6 +535,12 @@ mod tests {
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\ndecision_rule = \"scatter\"").unwrap();
         assert_eq!(spec.options(&chain).unwrap().decision_rule, crate::compare::DecisionRule::Scatter);
         assert!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"\ndecision_rule = \"vibes\"").unwrap_err().to_string().contains("vibes"));
+        assert_eq!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"").unwrap().options(&chain).unwrap().floor_margin, 0.5);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfloor_margin = 0.2").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().floor_margin, 0.2);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfloor_margin = -0.1").unwrap();
+        let e = spec.options(&chain).unwrap_err();
+        assert!(e.contains("floor_margin") && e.contains("-0.1"), "{e}");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npath_correction_bands = 65").unwrap();
         let e = spec.options(&chain).unwrap_err();
         assert!(e.contains("path_correction_bands") && e.contains("65"), "{e}");

@@ -154,6 +154,11 @@ pub struct Diagnosis {
     /// The floor's NRMSE (%) per domain: (domain, NRMSE).
     #[serde(default)]
     pub floor_domains: Vec<(String, f64)>,
+    /// The objective / floor ratio from which the decision saw something to explain
+    /// ([`floor_ratio_needed`] of the options it was judged with: 1.5 with one realisation and
+    /// the default margin). 0 when not decided (an old JSON).
+    #[serde(default)]
+    pub floor_ratio_needed: f64,
     /// Standard deviation of the calibrated objective when only the model's seed changes: the
     /// noise on every trial's objective.
     #[serde(default)]
@@ -799,7 +804,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective, second_look: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: floor_ratio_needed(opts), objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective, second_look: None }))
 }
 
 /// [`TRIAL_REFINE`] and then each of `others` not already in it: the parameters besides the
@@ -931,6 +936,10 @@ pub struct Round {
     /// trial's fit rather than a diagnosis).
     #[serde(default)]
     pub floor_objective: f64,
+    /// The objective / floor ratio the round's decision needed to see something to explain
+    /// ([`Diagnosis::floor_ratio_needed`]); 0 when not recorded.
+    #[serde(default)]
+    pub floor_ratio_needed: f64,
     /// The seed scatter σ of that objective (see [`objective_scatter`]), which sizes the tie band
     /// and the improvement test of the round's decision. 0 when not computed.
     #[serde(default)]
@@ -977,6 +986,7 @@ impl Round {
             envelope_nrmse,
             objective: d.judged_objective(),
             floor_objective: d.floor_objective,
+            floor_ratio_needed: d.floor_ratio_needed,
             objective_scatter: d.objective_scatter,
             verdict: d.verdict.clone(),
             ranking: ranking_of(d),
@@ -1436,6 +1446,8 @@ mod tests {
     fn the_floor_ratio_asks_for_the_same_distance_over_the_scatter_whatever_k() {
         let one = LoopOptions::default();
         assert_eq!(floor_ratio_needed(&one), 1.5);
+        assert!((floor_ratio_needed(&LoopOptions { floor_margin: 0.2, ..Default::default() }) - 1.2).abs() < 1e-12);
+        assert!((floor_ratio_needed(&LoopOptions { floor_margin: 0.2, realisations: 4, ..Default::default() }) - 1.88f64.sqrt()).abs() < 1e-12);
         let two = LoopOptions { realisations: 2, ..Default::default() };
         assert!((floor_ratio_needed(&two) - 3.5f64.sqrt()).abs() < 1e-12);
         // b²/V at the threshold: j² / floor² − 1 with floor² = 2V (K = 1), V (K ≥ 2).

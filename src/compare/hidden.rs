@@ -38,6 +38,9 @@ pub struct CaseResult {
     /// The seed floor of the objective (see [`super::diagnose::seed_floor`]).
     #[serde(default)]
     pub floor_objective: f64,
+    /// The objective / floor ratio the decision needed ([`super::Diagnosis::floor_ratio_needed`]).
+    #[serde(default)]
+    pub floor_ratio_needed: f64,
     /// The seed scatter of the objective (see [`super::diagnose::objective_scatter`]).
     #[serde(default)]
     pub objective_scatter: f64,
@@ -341,6 +344,7 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
         verdict: d.verdict,
         reductions: d.trials.iter().map(|t| t.reduction).collect(),
         floor_objective: d.floor_objective,
+        floor_ratio_needed: d.floor_ratio_needed,
         objective_scatter: d.objective_scatter,
         trials: d.trials.clone(),
         pinned: d.calibration.pinned(),
