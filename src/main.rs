@@ -618,7 +618,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     for (f, s) in last.residual_map.envelope_families.iter().take(6) {
         println!("  {f:<22} {s:6.1} %");
     }
-    println!("\nmissing-effect ranking (last round); floor {:.2} (the model against itself), seed scatter ±{:.2}:", last.floor_objective, last.objective_scatter);
+    let needed = if last.floor_ratio_needed > 0.0 { format!(", something can be missing from {:.2} × it", last.floor_ratio_needed) } else { String::new() };
+    println!("\nmissing-effect ranking (last round); floor {:.2} (the model against itself){needed}, seed scatter ±{:.2}:", last.floor_objective, last.objective_scatter);
     if last.floor_objective == 0.0 {
         println!("  note: {}", twinscope::compare::diagnose::ZERO_FLOOR_NOTE);
     }

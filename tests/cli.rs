@@ -128,6 +128,8 @@ fn confusion_refuses_a_bad_detection_sweep_before_any_work() {
     assert_clean_failure(&run(&["confusion", "--effect", "slip", "--snr-db", "100"]), &["--snr-db 100", "between"]);
     assert_clean_failure(&run(&["confusion", "--effect", "noise", "--value", "3", "--snr-db", "5"]), &["--snr-db", "noise", "--value"]);
     assert_clean_failure(&run(&["confusion", "--effect", "slip", "--fit-duration-s", "0.1"]), &["--fit-duration-s", "0.2 to 60 s"]);
+    assert_clean_failure(&run(&["confusion", "--effect", "slip", "--floor-margin=-0.1"]), &["--floor-margin", "-0.1", "margin ≥ 0"]);
+    assert_clean_failure(&run(&["diagnose", "nowhere.wav", "--floor-margin", "inf"]), &["--floor-margin", "inf", "finite"]);
 }
 
 #[test]

@@ -464,6 +464,10 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("second start: every trial also from the uncalibrated values, pinned or not (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).uncalibrated_start);
+    // The floor margin of the decision: the library's default until changed.
+    assert_eq!(o.floor_margin, 0.5);
+    set(&mut h, "floor margin", 0.2);
+    assert_eq!(h.state().settings.loop_options(Default::default()).floor_margin, 0.2);
     // Beyond the range: the editor clamps to the library's limit.
     set(&mut h, "model realisations", 99.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);

@@ -156,7 +156,8 @@ pub struct Diagnosis {
     pub floor_domains: Vec<(String, f64)>,
     /// The objective / floor ratio from which the decision saw something to explain
     /// ([`floor_ratio_needed`] of the options it was judged with: 1.5 with one realisation and
-    /// the default margin). 0 when not decided (an old JSON).
+    /// the default margin). 0 under [`DecisionRule::Scatter`], which asks no ratio, and in an old
+    /// JSON.
     #[serde(default)]
     pub floor_ratio_needed: f64,
     /// Standard deviation of the calibrated objective when only the model's seed changes: the
@@ -804,7 +805,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: floor_ratio_needed(opts), objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective, second_look: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective, second_look: None }))
 }
 
 /// [`TRIAL_REFINE`] and then each of `others` not already in it: the parameters besides the

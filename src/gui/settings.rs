@@ -54,6 +54,8 @@ pub struct Settings {
     /// Model loop: realisations of the second look when a random effect leads a search with one
     /// (`LoopOptions::random_effect_realisations`; 0 = off).
     pub loop_random_effect_realisations: usize,
+    /// Model loop: the floor margin of the decision (`LoopOptions::floor_margin`).
+    pub loop_floor_margin: f64,
 }
 
 impl Default for Settings {
@@ -78,6 +80,7 @@ impl Default for Settings {
             loop_path_correction_bands: 0,
             loop_realisations: LoopOptions::default().realisations,
             loop_random_effect_realisations: LoopOptions::default().random_effect_realisations,
+            loop_floor_margin: LoopOptions::default().floor_margin,
         }
     }
 }
@@ -136,6 +139,7 @@ impl Settings {
             uncalibrated_start: self.loop_uncalibrated_start,
             realisations: self.loop_realisations,
             random_effect_realisations: self.loop_random_effect_realisations,
+            floor_margin: self.loop_floor_margin,
             ..Default::default()
         }
     }

@@ -149,6 +149,9 @@ impl ModelLoopView {
                 let l = ui.label("second look for random effects").on_hover_text("when a search with one realisation ranks slip or an extended fault first (effects drawn at random, fitted to one draw), do it again with this many realisations, judged held out, and take that answer (0 = off); other searches keep the cost of one realisation");
                 ui.add(egui::DragValue::new(&mut s.loop_random_effect_realisations).range(0..=crate::compare::MAX_REALISATIONS).custom_formatter(|v, _| if v < 2.0 { "off".into() } else { format!("{v:.0}") }).custom_parser(|t| if t.trim() == "off" { Some(0.0) } else { t.trim().parse().ok() })).labelled_by(l.id);
                 ui.end_row();
+                let l = ui.label("floor margin").on_hover_text("something can be missing only when the calibrated model scores at least (1 + margin) × its seed floor, what a perfect model still scores (with several realisations the ratio that asks for the same misfit); lower finds effects nearer the floor and risks claiming a misfit of the base model");
+                ui.add(egui::DragValue::new(&mut s.loop_floor_margin).range(0.0..=5.0).speed(0.01)).labelled_by(l.id);
+                ui.end_row();
             });
             ui.checkbox(&mut s.loop_unbend_pinned, "unbend: when the calibration pins a parameter, also start the trials from the uncalibrated values")
                 .on_hover_text("each trial scans its effect on a grid and re-does the calibration with it (about seven times slower): for a model the calibration bent to stand in for what is missing");
