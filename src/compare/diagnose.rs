@@ -452,15 +452,15 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
     } else if first.pinned.is_some() {
         Some(format!("best trial: {}{}", first.effect.name(), pinned_clause(first)))
     } else if first.explained < opts.significance {
-        // A pinned trial that did better is named: the error it took up is real, its cause is
-        // not that effect within its range.
-        let pinned_better = trials[n_findings..].iter().filter(|t| t.pinned.is_some() && t.objective_after < first.objective_after && t.explained >= opts.significance).min_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
+        // A trial that is no finding (pinned, or its feature at the band's edge) and did better
+        // is named: the error it took up is real, its cause is not that effect within its range.
+        let pinned_better = trials[n_findings..].iter().filter(|t| t.objective_after < first.objective_after && t.explained >= opts.significance).min_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
         Some(format!(
             "best trial: {} explains {:.0} % of the error above the floor, below the {:.0} % threshold{}",
             first.effect.name(),
             first.explained * 100.0,
             opts.significance * 100.0,
-            pinned_better.map_or(String::new(), |t| format!("; {}{}", t.effect.name(), pinned_clause(t)))
+            pinned_better.map_or(String::new(), |t| format!("; {}{}", t.effect.name(), no_finding_clause(t)))
         ))
     } else if improvement < tie {
         Some(format!("best trial: {} improves the objective by {improvement:.2}, within the seed scatter (±{tie:.2})", first.effect.name()))
@@ -505,6 +505,16 @@ fn range_edge(p: Param, v: f64, m: &Machine) -> (bool, Option<(f64, f64)>) {
 /// above the middle of the range.
 fn in_upper_half(v: f64, lo: f64, hi: f64) -> bool {
     v > 0.5 * (lo + hi)
+}
+
+/// Why a trial that explains a share is no finding: [`pinned_clause`], or its feature at the
+/// edge of the band.
+fn no_finding_clause(t: &EffectTrial) -> String {
+    if t.outside_band {
+        let at = t.parameter.map_or(String::new(), |(p, v)| format!(" ({} = {v:.4e})", p.name()));
+        return format!(" explains {:.0} % of the error above the floor, but puts its feature at the edge of the band searched{at}, outside what the data show", t.explained * 100.0);
+    }
+    pinned_clause(t)
 }
 
 /// "explains N % …, but only with its strength at the top of its range (…): not an estimate".
@@ -1368,6 +1378,12 @@ mod tests {
         assert_eq!(best, Some(EffectKind::ExtendedFault), "{v}");
         assert_eq!(r.iter().map(|t| t.effect).collect::<Vec<_>>(), vec![EffectKind::ExtendedFault, EffectKind::Misalignment, EffectKind::CasingModes]);
         assert!(!r[2].tied_with_best);
+        // Behind a finding that explains too little, it is named with the reason it is none
+        // (the casing_modes + load_zone pair of the session-26 fresh-seed test, round 4).
+        let ts = vec![casing.clone(), trial(EffectKind::Misalignment, j0, floor, 11.79, 10.0)];
+        let (_, best, v) = decide(ts, j0, floor, 0.05, &o);
+        assert_eq!(best, None, "{v}");
+        assert!(v.contains("misalignment explains 14 %") && v.contains("casing_modes explains 47 %") && v.contains("edge of the band searched (effects.casing_modes.modes[0].frequency_hz = 7.3470e3)"), "{v}");
         // Alone, it is no finding, and the verdict says why.
         let (_, best, v) = decide(vec![casing], j0, floor, 0.05, &o);
         assert_eq!(best, None);
