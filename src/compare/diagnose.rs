@@ -1195,7 +1195,9 @@ pub fn judge_replacement(stuck: &Diagnosis, removed: EffectKind, added: EffectKi
     ReplacementJudgement {
         removed,
         added,
-        reaches: reachable_objective(d2.judged_objective(), &d2.trials),
+        // Adding `removed` back would make the replacement an addition of `added` to the stuck
+        // model, which that model's own trial of `added` has already judged.
+        reaches: reachable_objective(d2.judged_objective(), &d2.trials.iter().filter(|t| t.effect != removed).cloned().collect::<Vec<_>>()),
         stuck_reaches: reachable_objective(stuck.judged_objective(), &stuck.trials),
         tie: tie_width(stuck.objective_scatter),
         edge_note: fitted_not_a_finding(added, cal2),
@@ -1238,7 +1240,12 @@ struct Replacement {
 /// ([`reachable_objective`]: significant or not) by more than the seed scatter (`2√2 σ`, as
 /// ties in [`decide`]), and if the calibration did not fit the added effect at an edge of its
 /// range ([`fitted_not_a_finding`]: that would be a stand-in, as a pinned trial is); the round
-/// records it (`removed`, `applied`) and the next round starts from that diagnosis.
+/// records it (`removed`, `applied`) and the next round starts from that diagnosis. The effect
+/// taken out is no candidate in that diagnosis or after: put back, it would make the
+/// replacement an addition of the runner-up to the stuck model, which the stuck round's own
+/// trial of the runner-up has judged (on a fresh pair, casing_modes + load_zone, a path
+/// modulation at its physical top came in that way "in place of" the load zone, which the
+/// next round added back).
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     opts.validate()?;
     let reference = Reference::new(measured, &opts.compare)?;
@@ -1282,6 +1289,11 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 let mut o = opts.clone();
                 o.refit_effects.retain(|k| *k != a);
                 o.refit_effects.push(b);
+                // The effect taken out is not tried again (see `judge_replacement`).
+                if o.candidates.is_empty() {
+                    o.candidates = EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, &swapped)).collect();
+                }
+                o.candidates.retain(|k| *k != a);
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
                 let j = judge_replacement(&d, a, b, &cal2, &d2);
                 if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
@@ -1668,7 +1680,7 @@ mod tests {
         stuck.calibration.objective_after = 17.9;
         // The stuck model reaches 16.1; the tie band is 2√2 × 0.2 = 0.57.
         let swapped = |j_cal: f64, j_best: f64| {
-            let mut d = Diagnosis { trials: vec![trial(Misalignment, j_cal, 3.3, j_best, 0.4)], ..Default::default() };
+            let mut d = Diagnosis { trials: vec![trial(Slip, j_cal, 3.3, j_best, 0.4)], ..Default::default() };
             d.calibration.objective_after = j_cal;
             d
         };
@@ -1679,6 +1691,12 @@ mod tests {
         assert!((j.stuck_reaches - 16.1).abs() < 1e-12 && (j.reaches - 15.0).abs() < 1e-12 && (j.tie - 0.5657).abs() < 1e-4);
         assert!(j.kept(), "{j:?}");
         assert!(j.kept_text().contains("replacing misalignment by unbalance") && j.kept_text().contains("15.00 against 16.10"), "{}", j.kept_text());
+        // The removed effect put back is no addition of the replacement: that is the stuck
+        // model plus the runner-up, which the stuck round's own trial judged.
+        let mut back = swapped(15.8, 15.7);
+        back.trials.insert(0, trial(Misalignment, 15.8, 3.3, 12.0, 0.9));
+        let j = judge_replacement(&stuck, Misalignment, Unbalance, &m, &back);
+        assert!((j.reaches - 15.7).abs() < 1e-12 && !j.kept(), "{j:?}");
         // Within the seed scatter of the stuck reach: refused, though lower.
         let j = judge_replacement(&stuck, Misalignment, Unbalance, &m, &swapped(15.8, 15.6));
         assert!(!j.kept() && j.reaches < j.stuck_reaches);
