@@ -1122,6 +1122,19 @@ pub fn swap_effect(m: &Machine, a: EffectKind, b: EffectKind) -> Result<Machine,
     Ok(swapped)
 }
 
+/// Takes `out` from the effects a search of `m` may try: the effects a replacement took out
+/// are not tried again ([`run_loop`]; the desktop app does the same). An empty candidate list
+/// (every applicable effect) becomes the explicit list without them.
+pub fn exclude_candidates(opts: &mut LoopOptions, m: &Machine, out: &[EffectKind]) {
+    if out.is_empty() {
+        return;
+    }
+    if opts.candidates.is_empty() {
+        opts.candidates = EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, m)).collect();
+    }
+    opts.candidates.retain(|k| !out.contains(k));
+}
+
 /// The effects a loop's history leaves applied, in the order applied: every round's `applied`
 /// less those a later round `removed`.
 pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
@@ -1290,10 +1303,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 o.refit_effects.retain(|k| *k != a);
                 o.refit_effects.push(b);
                 // The effect taken out is not tried again (see `judge_replacement`).
-                if o.candidates.is_empty() {
-                    o.candidates = EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, &swapped)).collect();
-                }
-                o.candidates.retain(|k| *k != a);
+                exclude_candidates(&mut o, &swapped, &[a]);
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
                 let j = judge_replacement(&d, a, b, &cal2, &d2);
                 if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
@@ -1708,6 +1718,21 @@ mod tests {
         assert!(!j.kept());
         let note = replacements_refused_text(std::slice::from_ref(&j)).unwrap();
         assert!(note.contains("none below 16.10") && note.contains("unbalance in place of misalignment reaches 11.00, but its strength was fitted at the top"), "{note}");
+    }
+
+    #[test]
+    fn effects_taken_out_are_no_candidates() {
+        use EffectKind::*;
+        let m = crate::model::preset("mfs_inner").unwrap();
+        let mut o = LoopOptions::default();
+        exclude_candidates(&mut o, &m, &[]);
+        assert!(o.candidates.is_empty(), "nothing taken out: every applicable effect, as before");
+        exclude_candidates(&mut o, &m, &[LoadZone]);
+        assert!(!o.candidates.contains(&LoadZone) && o.candidates.contains(&PathModulation) && o.candidates.contains(&CasingModes));
+        assert!(o.candidates.iter().all(|k| Effects::applicable(*k, &m)));
+        let mut o = LoopOptions { candidates: vec![LoadZone, Slip], ..Default::default() };
+        exclude_candidates(&mut o, &m, &[LoadZone]);
+        assert_eq!(o.candidates, vec![Slip]);
     }
 
     #[test]

@@ -345,6 +345,7 @@ impl Workbench {
         let mut opts = self.settings.loop_options(jobs::compare_options_for(&self.session.chain));
         // Effects added in earlier rounds are re-fitted by the calibration, as `run_loop` does.
         opts.refit_effects = self.session.model.refit_effects();
+        crate::compare::diagnose::exclude_candidates(&mut opts, &machine, &self.session.model.taken_out());
         if let Err(e) = opts.validate() {
             self.session.tell(Level::Error, format!("model loop settings: {e}"));
             return;

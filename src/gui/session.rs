@@ -196,6 +196,12 @@ impl ModelState {
         on
     }
 
+    /// The effects replacements took out (kept ones in the history, and a pending one): a
+    /// search does not try them again (`compare::diagnose::exclude_candidates`).
+    pub fn taken_out(&self) -> Vec<EffectKind> {
+        self.history.iter().filter_map(|r| r.removed).chain(self.pending_replacement.as_ref().map(|p| p.removed)).collect()
+    }
+
     /// The replacements to offer under the last search (`compare::diagnose::replacement_proposals`)
     /// when it was run on the current machine, less those already refused.
     pub fn replacement_proposals(&self) -> Vec<(EffectKind, EffectKind)> {
@@ -471,6 +477,7 @@ mod tests {
         let swapped = s.machine.clone();
         assert!(swapped.effects.is_on(Misalignment) && !swapped.effects.is_on(Unbalance));
         assert_eq!(s.refit_effects(), vec![Misalignment]);
+        assert_eq!(s.taken_out(), vec![Unbalance], "the replacement's search does not try the unbalance again");
         // 17.5 is lower, but within the seed scatter of 17.9: not kept, and everything comes back.
         let said = s.take_result(answer(&swapped, 17.5));
         assert!(said.iter().any(|(_, t)| t.contains("replacement not kept") && t.contains("misalignment in place of unbalance reaches 17.50")), "{said:?}");
@@ -480,6 +487,7 @@ mod tests {
         assert_eq!((s.history[1].applied, s.history[1].removed), (None, None));
         assert!(s.history[1].verdict.contains("replacements tried, none below 17.90"), "{}", s.history[1].verdict);
         assert_eq!(s.refit_effects(), vec![Unbalance]);
+        assert_eq!(s.taken_out(), vec![], "refused, nothing was taken out");
         // Not offered again.
         assert_eq!(s.replacement_proposals(), vec![]);
     }
@@ -497,6 +505,7 @@ mod tests {
         assert!(!s.history[1].applied_values.is_empty());
         assert_eq!(s.history[2].objective, 15.0);
         assert_eq!(s.refit_effects(), vec![Misalignment]);
+        assert_eq!(s.taken_out(), vec![Unbalance], "kept: the searches after it do not try the unbalance again");
         // A search on another model does not judge the replacement.
         let (mut s, stuck) = stuck_state();
         s.start_replacement(Unbalance, Misalignment).unwrap();
