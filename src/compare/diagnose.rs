@@ -454,13 +454,13 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
     } else if first.explained < opts.significance {
         // A trial that is no finding (pinned, or its feature at the band's edge) and did better
         // is named: the error it took up is real, its cause is not that effect within its range.
-        let pinned_better = trials[n_findings..].iter().filter(|t| t.objective_after < first.objective_after && t.explained >= opts.significance).min_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
+        let no_finding_better = trials[n_findings..].iter().filter(|t| t.objective_after < first.objective_after && t.explained >= opts.significance).min_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
         Some(format!(
             "best trial: {} explains {:.0} % of the error above the floor, below the {:.0} % threshold{}",
             first.effect.name(),
             first.explained * 100.0,
             opts.significance * 100.0,
-            pinned_better.map_or(String::new(), |t| format!("; {}{}", t.effect.name(), no_finding_clause(t)))
+            no_finding_better.map_or(String::new(), |t| format!("; {}{}", t.effect.name(), no_finding_clause(t)))
         ))
     } else if improvement < tie {
         Some(format!("best trial: {} improves the objective by {improvement:.2}, within the seed scatter (±{tie:.2})", first.effect.name()))
