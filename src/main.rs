@@ -270,11 +270,10 @@ fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {
     Ok(v)
 }
 
+/// The margin as the library checks it (`LoopOptions::validate`), refused at parse time.
 fn parse_floor_margin(s: &str) -> std::result::Result<f64, String> {
     let v: f64 = s.parse().map_err(|e| format!("{s}: {e}"))?;
-    if !(v.is_finite() && v >= 0.0) {
-        return Err(format!("{s}: give a finite margin ≥ 0 (the default is {})", LoopOptions::default().floor_margin));
-    }
+    LoopOptions { floor_margin: v, ..Default::default() }.validate().map_err(|e| e.to_string())?;
     Ok(v)
 }
 
