@@ -198,6 +198,10 @@ pub struct LoopSpec {
     /// (`LoopOptions::uncalibrated_start`, experimental). Default false.
     #[serde(default)]
     pub uncalibrated_start: bool,
+    /// A stuck round with no kept replacement also re-fits each applied effect from the
+    /// uncalibrated values (`LoopOptions::refit_when_stuck`, experimental). Default false.
+    #[serde(default)]
+    pub refit_when_stuck: bool,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
     #[serde(default)]
@@ -259,7 +263,7 @@ impl LoopSpec {
         if !(1..=20).contains(&self.rounds) {
             return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
@@ -523,6 +527,9 @@ mod tests {
         assert!(!spec.options(&chain).unwrap().uncalibrated_start);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nuncalibrated_start = true").unwrap();
         assert!(spec.options(&chain).unwrap().uncalibrated_start);
+        assert!(!spec.options(&chain).unwrap().refit_when_stuck);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nrefit_when_stuck = true").unwrap();
+        assert!(spec.options(&chain).unwrap().refit_when_stuck);
     }
 
     #[test]

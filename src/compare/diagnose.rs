@@ -2,7 +2,7 @@
 //! evidence in the residual map for that effect's signature with a trial — switch it on, fit
 //! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
 
-use super::calibrate::{at_search_bound, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param};
+use super::calibrate::{at_search_bound, calibration_parameters, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param};
 use super::residual::{residual_map, ResidualMap};
 use super::{Comparison, Reference};
 use crate::kinematics::CharacteristicFrequency;
@@ -969,7 +969,8 @@ pub struct Round {
     /// The effect applied at the end of the round.
     pub applied: Option<EffectKind>,
     /// The effect taken out at the end of the round, when the loop replaced an applied effect
-    /// (see [`run_loop`]); `applied` is then the one put in its place.
+    /// (see [`run_loop`]); `applied` is then the one put in its place. Both are the same effect
+    /// when the loop re-fitted it from the uncalibrated values instead ([`Round::refitted`]).
     #[serde(default)]
     pub removed: Option<EffectKind>,
     /// The applied effect's parameters as they went into the model (see
@@ -985,6 +986,12 @@ pub struct Round {
 }
 
 impl Round {
+    /// Whether the round re-fitted an applied effect in place (`removed == applied`,
+    /// [`LoopOptions::refit_when_stuck`]) rather than replacing it.
+    pub fn refitted(&self) -> bool {
+        self.removed.is_some() && self.removed == self.applied
+    }
+
     /// The round of a diagnosis of the model with `effects_on`: its calibrated metrics, floor,
     /// scatter, verdict, ranking and pinned parameters; nothing applied yet. `envelope_nrmse` is
     /// the caller's reading of the calibrated envelope NRMSE (what to show when it is missing
@@ -1011,6 +1018,7 @@ impl Round {
     /// replacement, or `none` when nothing was applied.
     pub fn change(&self, none: &str) -> String {
         match (self.applied, self.removed) {
+            (Some(b), Some(a)) if a == b => format!("{} {REFITTED}", b.name()),
             (Some(b), Some(a)) => format!("{} in place of {}", b.name(), a.name()),
             (Some(b), None) => b.name().to_string(),
             _ => none.to_string(),
@@ -1024,6 +1032,7 @@ impl Round {
         let values = effect_values_text(&self.applied_values);
         let added = if values.is_empty() { b.name().to_string() } else { format!("{} ({values})", b.name()) };
         match self.removed {
+            Some(a) if a == b => format!("{added} {REFITTED}"),
             Some(a) => format!("{added} in place of {}", a.name()),
             None => added,
         }
@@ -1079,10 +1088,13 @@ fn stuck(d: &Diagnosis, opts: &LoopOptions) -> bool {
 /// error there — and is neither on nor taken out before. Ranked by how close `b` came to `a`
 /// in that round (explained share of `b` / share of `a`).
 pub fn replacement_candidates(history: &[Round], current: &Machine, opts: &LoopOptions) -> Vec<(EffectKind, EffectKind)> {
-    let removed: Vec<EffectKind> = history.iter().filter_map(|r| r.removed).collect();
+    let removed: Vec<EffectKind> = history.iter().filter(|r| !r.refitted()).filter_map(|r| r.removed).collect();
     let mut pairs: Vec<(f64, EffectKind, EffectKind)> = Vec::new();
     for r in history {
         let Some(a) = r.applied else { continue };
+        if r.refitted() {
+            continue;
+        }
         if !current.effects.is_on(a) {
             continue;
         }
@@ -1187,11 +1199,15 @@ impl ReplacementJudgement {
 
     /// `"<added> in place of <removed> reaches <v>[, but <edge note>]"`.
     pub fn tried_text(&self) -> String {
-        format!("{} in place of {} reaches {:.2}{}", self.added.name(), self.removed.name(), self.reaches, self.edge_note.map_or(String::new(), |n| format!(", but {n}")))
+        let what = if self.removed == self.added { format!("{} {REFITTED}", self.added.name()) } else { format!("{} in place of {}", self.added.name(), self.removed.name()) };
+        format!("{what} reaches {:.2}{}", self.reaches, self.edge_note.map_or(String::new(), |n| format!(", but {n}")))
     }
 
     /// The note a stuck round's verdict gets for a kept replacement.
     pub fn kept_text(&self) -> String {
+        if self.removed == self.added {
+            return format!("{} {REFITTED} (then by the calibration) reaches objective {:.2} against {:.2}, each with its best one addition", self.added.name(), self.reaches, self.stuck_reaches);
+        }
         format!(
             "replacing {} by {} (fitted by the calibration) reaches objective {:.2} against {:.2}, each with its best one addition",
             self.removed.name(),
@@ -1229,6 +1245,38 @@ pub fn replacements_refused_text(tried: &[ReplacementJudgement]) -> Option<Strin
     ))
 }
 
+/// How a round's change reads when the loop re-fitted an applied effect in place
+/// ([`LoopOptions::refit_when_stuck`]; the round records it as `removed == applied`).
+pub const REFITTED: &str = "re-fitted from the uncalibrated values";
+
+/// The applied effects a stuck round may re-fit from the loop's uncalibrated values
+/// ([`LoopOptions::refit_when_stuck`]), in the order applied: those still on that have a main
+/// parameter to scan and were not re-fitted before.
+pub fn refit_candidates(history: &[Round], current: &Machine) -> Vec<EffectKind> {
+    applied_effects(history)
+        .into_iter()
+        .filter(|k| current.effects.is_on(*k) && Param::main_of_effect(*k).is_some() && !history.iter().any(|r| r.refitted() && r.applied == Some(*k)))
+        .collect()
+}
+
+/// The stuck calibrated model `cal` with its applied effect `a` fitted anew from the
+/// uncalibrated values of `start` (the loop's first model): the base's calibration parameters
+/// ([`calibration_parameters`]) are put back to `start`'s, `a`'s main parameter is scanned on a
+/// grid, then `a`'s parameters and the noise level are fitted, as a trial's second start does
+/// (`LoopOptions::uncalibrated_start`). The other applied effects keep their values. The caller
+/// re-calibrates and searches the result ([`run_loop`]).
+pub fn refit_from_uncalibrated(cal: &Machine, start: &Machine, a: EffectKind, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<Machine, LoopError> {
+    let mut t = cal.clone();
+    for p in calibration_parameters(cal) {
+        if let Some(v) = p.get(start) {
+            p.set(&mut t, v);
+        }
+    }
+    let scan: Vec<Param> = Param::main_of_effect(a).into_iter().collect();
+    progress.expect(fit_trial_scanning_evaluations(&t, &Param::of_effect(a), &TRIAL_REFINE, &scan, opts));
+    Ok(fit_trial_scanning(&t, reference, &Param::of_effect(a), &TRIAL_REFINE, &scan, opts, progress)?.0)
+}
+
 /// A replacement the loop keeps: the new machine, its diagnosis (calibrated machine,
 /// diagnosis) and the options it was run with.
 struct Replacement {
@@ -1259,6 +1307,12 @@ struct Replacement {
 /// trial of the runner-up has judged (on a fresh pair, casing_modes + load_zone, a path
 /// modulation at its physical top came in that way "in place of" the load zone, which the
 /// next round added back).
+///
+/// **Re-fit in place** ([`LoopOptions::refit_when_stuck`], off by default). When no
+/// replacement is kept, each applied effect ([`refit_candidates`]) is fitted anew from the
+/// loop's uncalibrated values ([`refit_from_uncalibrated`]), the model diagnosed again, and the
+/// result judged as a replacement of the effect by itself; the best kept one goes on, recorded
+/// with `removed == applied`.
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     opts.validate()?;
     let reference = Reference::new(measured, &opts.compare)?;
@@ -1310,6 +1364,18 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                     kept = Some((j.clone(), Replacement { machine: swapped, diagnosed: (cal2, d2), opts: o }));
                 }
                 tried.push(j);
+            }
+            // No runner-up helped: an applied effect may sit where a bent calibration put it.
+            if kept.is_none() && opts.refit_when_stuck {
+                for a in refit_candidates(&history, &current) {
+                    let refitted = refit_from_uncalibrated(&cal, m, a, &reference, &opts, progress)?;
+                    let (cal2, d2) = diagnose_with(&refitted, &reference, &opts, progress)?;
+                    let j = judge_replacement(&d, a, a, &cal2, &d2);
+                    if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
+                        kept = Some((j.clone(), Replacement { machine: refitted, diagnosed: (cal2, d2), opts: opts.clone() }));
+                    }
+                    tried.push(j);
+                }
             }
             if let Some((j, Replacement { machine: swapped, diagnosed: (cal2, d2), opts: o })) = kept {
                 round.verdict = format!("{}; {}", d.verdict, j.kept_text());
