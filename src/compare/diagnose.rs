@@ -1724,6 +1724,46 @@ mod tests {
     }
 
     #[test]
+    fn a_stuck_round_re_fits_each_applied_effect_once_and_its_runners_up_stay_the_first_rounds() {
+        use EffectKind::*;
+        let mut m = crate::model::preset("mfs_inner").unwrap();
+        for k in [LoadZone, Misalignment, NonlinearContact] {
+            m.effects.enable(k);
+        }
+        let opts = LoopOptions::default();
+        // Round 1 applied the load zone (misalignment close behind), round 2 the nonlinear
+        // contact (a switch: nothing to scan), round 3 the misalignment, round 4 was stuck.
+        let mut h = vec![
+            round(1, vec![(LoadZone, 0.7), (Misalignment, 0.5), (Unbalance, 0.4)], Some(LoadZone), None),
+            round(2, vec![(NonlinearContact, 0.6)], Some(NonlinearContact), None),
+            round(3, vec![(Misalignment, 0.5)], Some(Misalignment), None),
+        ];
+        assert_eq!(refit_candidates(&h, &m), vec![LoadZone, Misalignment]);
+        assert_eq!(replacement_candidates(&h, &m, &opts), vec![(LoadZone, Unbalance)]);
+        // Round 4 re-fitted the load zone in place: it is still on, reads as re-fitted, is not
+        // re-fitted again, and its stuck round's ranking (where the load zone, being on, had no
+        // trial) offers no replacements of it.
+        h.push(round(4, vec![(Unbalance, 0.3), (SpeedFluctuation, 0.25)], Some(LoadZone), Some(LoadZone)));
+        assert!(h[3].refitted() && !h[0].refitted());
+        assert_eq!(h[3].change("-"), format!("load_zone {REFITTED}"));
+        assert_eq!(applied_effects(&h), vec![NonlinearContact, Misalignment, LoadZone]);
+        assert_eq!(refit_candidates(&h, &m), vec![Misalignment]);
+        assert_eq!(replacement_candidates(&h, &m, &opts), vec![(LoadZone, Unbalance)]);
+        // An effect switched off is not re-fitted.
+        m.effects.disable(Misalignment);
+        assert_eq!(refit_candidates(&h, &m), vec![]);
+        // The judgement of a re-fit reads as one.
+        let mut stuck = Diagnosis { objective_scatter: 0.1, ..Default::default() };
+        stuck.calibration.objective_after = 9.0;
+        let mut d2 = Diagnosis::default();
+        d2.calibration.objective_after = 4.0;
+        let j = judge_replacement(&stuck, LoadZone, LoadZone, &m, &d2);
+        assert!(j.kept(), "{j:?}");
+        assert!(j.tried_text().starts_with(&format!("load_zone {REFITTED} reaches 4.00")), "{}", j.tried_text());
+        assert!(j.kept_text().contains(&format!("load_zone {REFITTED}")) && j.kept_text().contains("4.00 against 9.00"), "{}", j.kept_text());
+    }
+
+    #[test]
     fn a_replacement_fitted_at_an_edge_of_its_range_is_no_finding() {
         use EffectKind::*;
         let mut m = crate::model::preset("mfs_inner").unwrap();
