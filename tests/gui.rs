@@ -495,7 +495,7 @@ fn model_loop_says_when_a_diagnosis_is_a_second_look() {
     {
         let second_look = Some(SecondLook { realisations: 4, leader: twinscope::model::EffectKind::Slip, verdict_with_one: "nothing significant is missing (best trial: slip explains 12 %)".into() });
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, held_out_objective: Some(8.4), second_look, verdict: "slip: ...".into(), ..Default::default() };
-        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions { random_effect_realisations: 4, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0 });
+        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions { random_effect_realisations: 4, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0, refitted: None });
     }
     h.run_steps(3);
     assert!(h.query_by_label_contains("Second look with 4 realisations: slip led the search with one").is_some(), "the second look is shown");
@@ -537,7 +537,7 @@ fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
     {
         let trials = vec![trial(LoadZone, (Param::RadialLoadN, 86.0), 3.0, true), trial(Unbalance, (Param::UnbalanceKgM, 3e-4), 7.0, false)];
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, trials, best: Some(LoadZone), verdict: "load_zone: ...".into(), ..Default::default() };
-        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions { uncalibrated_start: true, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0 });
+        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions { uncalibrated_start: true, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0, refitted: None });
     }
     h.run_steps(3);
     let marked = labels_containing(&h, "its best fit started from the uncalibrated values");
@@ -587,7 +587,7 @@ fn model_loop_offers_a_replacement_when_stuck() {
         // The search ran with a transfer-path correction; the view says so.
         let path_correction = Some(twinscope::dsp::path_correction::PathCorrection { centre_hz: vec![500.0, 3000.0], gain_db: vec![-12.5, 3.0], level_db: -4.0 });
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, verdict: "nothing significant is missing".into(), path_correction, ..Default::default() };
-        model.result = Some(LoopResult { measured: name, options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0 });
+        model.result = Some(LoopResult { measured: name, options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None });
     }
     h.run_steps(3);
     assert!(h.query_by_label_contains("transfer-path correction on (2 bands): -12.5 to +3.0 dB").is_some(), "the correction is shown");
@@ -613,6 +613,27 @@ fn model_loop_offers_a_replacement_when_stuck() {
     assert!(model.history[1].verdict.contains("replacements tried, none below 8.00") && model.history[1].verdict.contains("misalignment in place of unbalance reaches"), "{}", model.history[1].verdict);
     assert_eq!(model.refused_replacements, vec![(Unbalance, Misalignment)]);
     assert!(h.query_by_label("Try misalignment in place of unbalance").is_none(), "a refused replacement is not offered again");
+    // The re-fit of the unbalance from the uncalibrated values is still offered: the same
+    // stuck round, judged by the same rule, on a model the worker fits first.
+    let button = h.get_by_label("Re-fit unbalance from the uncalibrated values");
+    assert!(!button.accesskit_node().is_disabled());
+    button.click();
+    h.run_steps(2);
+    let model = &h.state().session.model;
+    assert!(model.pending_replacement.as_ref().is_some_and(|p| p.removed == Unbalance && p.added == Unbalance && p.swapped.is_none()), "judged when the search comes back");
+    assert_eq!(model.machine, m, "the machine stays until the re-fit is kept");
+    assert!(h.state().worker.busy(), "the re-fit and its search run on the worker");
+    wait_for(&mut h, "the re-fit and its search", 600, |a| !a.worker.busy());
+    h.run_steps(2);
+    let s = h.state();
+    assert!(s.session.last_error().is_none(), "errors: {:?}", s.session.last_error());
+    let model = &s.session.model;
+    assert!(model.pending_replacement.is_none());
+    assert_eq!(model.machine, m, "refused against the made-up 8.0: the stuck model stays");
+    assert_eq!(model.history.len(), 2);
+    assert!(model.history[1].verdict.contains("unbalance re-fitted from the uncalibrated values reaches"), "{}", model.history[1].verdict);
+    assert!(model.refused_replacements.contains(&(Unbalance, Unbalance)));
+    assert!(h.query_by_label("Re-fit unbalance from the uncalibrated values").is_none(), "a refused re-fit is not offered again");
 }
 
 /// A search with several model realisations judged its trials on held-out realisations: the
@@ -627,7 +648,7 @@ fn model_loop_says_when_trials_were_judged_on_held_out_realisations() {
     {
         let model = &mut h.state_mut().session.model;
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, held_out_objective: Some(8.75), verdict: "nothing significant is missing".into(), ..Default::default() };
-        model.result = Some(LoopResult { measured: name, options: LoopOptions { realisations: 2, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0 });
+        model.result = Some(LoopResult { measured: name, options: LoopOptions { realisations: 2, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0, refitted: None });
     }
     h.run_steps(3);
     assert!(h.query_by_label_contains("Judged on held-out realisations: the calibrated model scores 8.75 there (8.00 on the realisations it was fitted to)").is_some(), "the held-out judgement is shown");

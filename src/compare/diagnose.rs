@@ -1121,6 +1121,17 @@ pub fn replacement_proposals(history: &[Round], current: &Machine, d: &Diagnosis
     }
 }
 
+/// The applied effects to offer for a re-fit from the uncalibrated values after diagnosis `d`
+/// of `current` ([`refit_from_uncalibrated`]): when `d` is stuck, [`refit_candidates`] of the
+/// history; otherwise none. The desktop app offers these beside the replacements.
+pub fn refit_proposals(history: &[Round], current: &Machine, d: &Diagnosis, opts: &LoopOptions) -> Vec<EffectKind> {
+    if stuck(d, opts) {
+        refit_candidates(history, current)
+    } else {
+        Vec::new()
+    }
+}
+
 /// `m` with effect `a` switched off and `b` on (with its default parameters, a path
 /// modulation at the shaft rate), validated: the model a replacement starts from.
 pub fn swap_effect(m: &Machine, a: EffectKind, b: EffectKind) -> Result<Machine, crate::model::ModelError> {

@@ -253,6 +253,7 @@ impl Workbench {
             Command::FindMissingEffect { measured } => self.find_missing_effect(measured),
             Command::AddTrial { effect, measured } => self.add_trial(effect, measured),
             Command::ReplaceEffect { remove, add, measured } => self.replace_effect(remove, add, measured),
+            Command::RefitEffect { effect, measured } => self.refit_effect(effect, measured),
             Command::ComputeScf { source, params } => self.compute_scf(source, params),
             Command::Dialog(purpose) => self.dialog(purpose),
             Command::SaveSession(p) => match SessionFile::from_session(&self.session).save(&p) {
@@ -339,17 +340,24 @@ impl Workbench {
         });
     }
 
+    /// The options of the model loop's next search of `machine`: the settings, the effects added
+    /// in earlier rounds re-fitted by the calibration (as `run_loop` does), the effects taken
+    /// out by replacements left out. None (and the user told) when the settings are invalid.
+    fn search_options(&mut self, machine: &crate::model::Machine) -> Option<crate::compare::LoopOptions> {
+        let mut opts = self.settings.loop_options(jobs::compare_options_for(&self.session.chain));
+        opts.refit_effects = self.session.model.refit_effects();
+        crate::compare::diagnose::exclude_candidates(&mut opts, machine, &self.session.model.taken_out());
+        if let Err(e) = opts.validate() {
+            self.session.tell(Level::Error, format!("model loop settings: {e}"));
+            return None;
+        }
+        Some(opts)
+    }
+
     fn find_missing_effect(&mut self, measured: usize) {
         let Some(meas) = self.measured_entry(Some(measured)) else { return };
         let machine = self.session.model.machine.clone();
-        let mut opts = self.settings.loop_options(jobs::compare_options_for(&self.session.chain));
-        // Effects added in earlier rounds are re-fitted by the calibration, as `run_loop` does.
-        opts.refit_effects = self.session.model.refit_effects();
-        crate::compare::diagnose::exclude_candidates(&mut opts, &machine, &self.session.model.taken_out());
-        if let Err(e) = opts.validate() {
-            self.session.tell(Level::Error, format!("model loop settings: {e}"));
-            return;
-        }
+        let Some(opts) = self.search_options(&machine) else { return };
         let n = if opts.candidates.is_empty() { "every missing effect".to_string() } else { format!("{} candidate effects", opts.candidates.len()) };
         self.worker.spawn(format!("find missing effect: {} against {} ({n})", machine.name, meas.signal.name), move |job| {
             let r = jobs::find_missing_effect(&machine, &meas, &opts, job)?;
@@ -368,6 +376,27 @@ impl Workbench {
         }
         self.session.tell(Level::Info, format!("{} in place of {}: searching the new model; it is kept if it reaches below the stuck model by more than the seed scatter", add.name(), remove.name()));
         self.find_missing_effect(measured);
+    }
+
+    /// The loop's re-fit step, by hand: the applied `effect` fitted anew from the uncalibrated
+    /// values on the worker, the result searched, and the answer judged as a replacement
+    /// ([`ModelState::take_result`]).
+    fn refit_effect(&mut self, effect: crate::model::EffectKind, measured: usize) {
+        let Some(meas) = self.measured_entry(Some(measured)) else { return };
+        let Some(opts) = self.search_options(&self.session.model.machine.clone()) else { return };
+        let (stuck, start) = match self.session.model.start_refit(effect) {
+            Ok(x) => x,
+            Err(e) => {
+                self.session.tell(Level::Error, e);
+                return;
+            }
+        };
+        self.session.tell(Level::Info, format!("re-fitting {} from the uncalibrated values, then searching; kept if it reaches below the stuck model by more than the seed scatter", effect.name()));
+        self.worker.spawn(format!("re-fit {} and find missing effect against {}", effect.name(), meas.signal.name), move |job| {
+            let r = jobs::refit_and_search(&stuck, &start, effect, &meas, &opts, job)?;
+            job.send(JobOutput::Loop(Box::new(r)));
+            Ok(())
+        });
     }
 
     fn add_trial(&mut self, effect: crate::model::EffectKind, measured: Option<usize>) {

@@ -94,7 +94,27 @@ pub fn find_missing_effect(machine: &model::Machine, measured: &SignalEntry, opt
         compare::LoopError::Cancelled => "cancelled".to_string(),
         e => format!("find missing effect against `{}`: {e}", measured.signal.name),
     })?;
-    Ok(LoopResult { measured: measured.signal.name.clone(), options: opts.clone(), started_from: machine.clone(), calibrated, diagnosis, added: Vec::new(), seconds: started.elapsed().as_secs_f64() })
+    Ok(LoopResult { measured: measured.signal.name.clone(), options: opts.clone(), started_from: machine.clone(), calibrated, diagnosis, added: Vec::new(), seconds: started.elapsed().as_secs_f64(), refitted: None })
+}
+
+/// The loop's re-fit by hand: the applied effect `a` of the stuck calibrated machine `stuck`
+/// fitted anew from the uncalibrated values of `start`
+/// (`compare::diagnose::refit_from_uncalibrated`), then [`find_missing_effect`] on the result.
+pub fn refit_and_search(stuck: &model::Machine, start: &model::Machine, a: model::EffectKind, measured: &SignalEntry, opts: &compare::LoopOptions, job: &JobHandle) -> Result<LoopResult, String> {
+    job.set_step(format!("re-fitting {} from the uncalibrated values", a.name()));
+    job.set_progress(0.0);
+    let report = |done: usize, expected: usize| {
+        job.set_progress(done as f64 / expected.max(1) as f64);
+        job.set_step(format!("re-fitting {}: model evaluation {done} of {expected}", a.name()));
+        !job.cancelled()
+    };
+    let failed = |e: compare::LoopError| match e {
+        compare::LoopError::Cancelled => "cancelled".to_string(),
+        e => format!("re-fit of {} against `{}`: {e}", a.name(), measured.signal.name),
+    };
+    let reference = compare::Reference::new(&measured.signal, &opts.compare).map_err(|e| failed(e.into()))?;
+    let refitted = compare::diagnose::refit_from_uncalibrated(stuck, start, a, &reference, opts, &compare::LoopProgress::new(&report)).map_err(failed)?;
+    Ok(LoopResult { refitted: Some(a), ..find_missing_effect(&refitted, measured, opts, job)? })
 }
 
 /// The cyclic spectral correlation of `signal` (Fast-SC), with the line families of `entry` for

@@ -136,6 +136,9 @@ pub struct LoopResult {
     pub added: Vec<EffectKind>,
     /// Seconds the search took.
     pub seconds: f64,
+    /// The applied effect re-fitted from the uncalibrated values before this search (a re-fit
+    /// by hand, [`ModelState::start_refit`]); None for a plain search.
+    pub refitted: Option<EffectKind>,
 }
 
 /// The model of the model loop: the machine being edited, its last diagnosis and the history
@@ -156,21 +159,27 @@ pub struct ModelState {
     pub simulated_id: Option<u64>,
     /// A replacement tried by hand, waiting for the search of its model.
     pub pending_replacement: Option<PendingReplacement>,
-    /// Replacements (taken out, put in) tried by hand and not kept: not offered again.
+    /// Replacements (taken out, put in) tried by hand and not kept: not offered again. A
+    /// refused re-fit is recorded as (effect, effect).
     pub refused_replacements: Vec<(EffectKind, EffectKind)>,
+    /// The machine the first search of the history started from: the uncalibrated values a
+    /// re-fit by hand starts from ([`ModelState::start_refit`]).
+    pub loop_start: Option<Machine>,
 }
 
 /// The loop's replacement step done by hand ([`ModelState::start_replacement`]): `added` in
 /// place of `removed` in the calibrated machine of the stuck search, judged when the search
-/// of `swapped` comes back, as `compare::run_loop` judges its own.
+/// of `swapped` comes back, as `compare::run_loop` judges its own. A re-fit by hand
+/// ([`ModelState::start_refit`]) has `removed == added` and no `swapped`: its model is fitted
+/// on the worker, and the search that comes back says which effect it re-fitted.
 #[derive(Debug, Clone)]
 pub struct PendingReplacement {
     /// The effect taken out.
     pub removed: EffectKind,
     /// The effect put in its place.
     pub added: EffectKind,
-    /// The model the replacement's search runs on.
-    pub swapped: Machine,
+    /// The model the replacement's search runs on (None for a re-fit).
+    pub swapped: Option<Machine>,
     /// The stuck search, restored when the replacement is not kept.
     pub stuck: Box<LoopResult>,
     /// Index in the history of the stuck search's round.
@@ -182,7 +191,7 @@ impl ModelState {
     pub fn from_preset(name: &str) -> Result<Self, String> {
         let machine = crate::model::preset(name).map_err(|e| e.to_string())?;
         machine.validate().map_err(|e| e.to_string())?;
-        Ok(Self { preset: name.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new() })
+        Ok(Self { preset: name.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new(), loop_start: None })
     }
 
     /// The effects a search's calibration re-fits: those the history applied (as `run_loop`
@@ -199,7 +208,7 @@ impl ModelState {
     /// The effects replacements took out (kept ones in the history, and a pending one): a
     /// search does not try them again (`compare::diagnose::exclude_candidates`).
     pub fn taken_out(&self) -> Vec<EffectKind> {
-        self.history.iter().filter_map(|r| r.removed).chain(self.pending_replacement.as_ref().map(|p| p.removed)).collect()
+        self.history.iter().filter(|r| !r.refitted()).filter_map(|r| r.removed).chain(self.pending_replacement.as_ref().filter(|p| p.removed != p.added).map(|p| p.removed)).collect()
     }
 
     /// The replacements to offer under the last search (`compare::diagnose::replacement_proposals`)
@@ -209,6 +218,34 @@ impl ModelState {
         crate::compare::diagnose::replacement_proposals(&self.history, &self.machine, &r.diagnosis, &r.options).into_iter().filter(|x| !self.refused_replacements.contains(x)).collect()
     }
 
+    /// The applied effects to offer for a re-fit from the uncalibrated values under the last
+    /// search (`compare::diagnose::refit_proposals`) when it was run on the current machine,
+    /// less those already refused.
+    pub fn refit_proposals(&self) -> Vec<EffectKind> {
+        let Some(r) = self.result.as_ref().filter(|r| r.started_from == self.machine) else { return Vec::new() };
+        crate::compare::diagnose::refit_proposals(&self.history, &self.machine, &r.diagnosis, &r.options).into_iter().filter(|k| !self.refused_replacements.contains(&(*k, *k))).collect()
+    }
+
+    /// Starts the re-fit of the applied effect `a` from the uncalibrated values (the loop's
+    /// step of `LoopOptions::refit_when_stuck`, by hand): returns the last search's calibrated
+    /// machine and the uncalibrated start ([`ModelState::loop_start`], else the preset), which
+    /// the caller hands to `compare::diagnose::refit_from_uncalibrated` and then searches; the
+    /// answer is judged as a replacement ([`ModelState::take_result`]). Err when there is no
+    /// search or no start (nothing changed).
+    pub fn start_refit(&mut self, a: EffectKind) -> Result<(Machine, Machine), String> {
+        let Some(r) = self.result.as_ref() else { return Err("no ranking yet: run Find missing effect first".into()) };
+        if !r.calibrated.effects.is_on(a) {
+            return Err(format!("{} is not in the model: nothing to re-fit", a.name()));
+        }
+        let start = match &self.loop_start {
+            Some(m) => m.clone(),
+            None => crate::model::preset(&self.preset).map_err(|e| format!("{} not re-fitted: no uncalibrated start ({e})", a.name()))?,
+        };
+        let stuck_round = self.history.len().saturating_sub(1);
+        self.pending_replacement = Some(PendingReplacement { removed: a, added: a, swapped: None, stuck: Box::new(r.clone()), stuck_round });
+        Ok((r.calibrated.clone(), start))
+    }
+
     /// Starts the replacement of `removed` by `added` in the last search's calibrated machine:
     /// the machine becomes the swapped one, which the caller then searches. Err when there is
     /// no search or the swapped machine is invalid (nothing changed).
@@ -216,7 +253,7 @@ impl ModelState {
         let Some(r) = self.result.as_ref() else { return Err("no ranking yet: run Find missing effect first".into()) };
         let swapped = crate::compare::diagnose::swap_effect(&r.calibrated, removed, added).map_err(|e| format!("{} in place of {} not tried: {e}", added.name(), removed.name()))?;
         let stuck_round = self.history.len().saturating_sub(1);
-        self.pending_replacement = Some(PendingReplacement { removed, added, swapped: swapped.clone(), stuck: Box::new(r.clone()), stuck_round });
+        self.pending_replacement = Some(PendingReplacement { removed, added, swapped: Some(swapped.clone()), stuck: Box::new(r.clone()), stuck_round });
         self.replace_machine(swapped);
         Ok(())
     }
@@ -231,14 +268,20 @@ impl ModelState {
         use crate::compare::diagnose::{effect_values, judge_replacement, replacements_refused_text};
         let mut said = Vec::new();
         if let Some(p) = self.pending_replacement.take() {
-            if r.started_from != p.swapped {
-                said.push((Level::Info, format!("the replacement of {} by {} was not judged: the search ran on another model", p.removed.name(), p.added.name())));
+            let refit = p.removed == p.added;
+            let ours = match &p.swapped {
+                Some(swapped) => r.started_from == *swapped && r.refitted.is_none(),
+                None => r.refitted == Some(p.added),
+            };
+            if !ours {
+                let what = if refit { format!("the re-fit of {}", p.added.name()) } else { format!("the replacement of {} by {}", p.removed.name(), p.added.name()) };
+                said.push((Level::Info, format!("{what} was not judged: the search ran on another model")));
             } else {
                 let j = judge_replacement(&p.stuck.diagnosis, p.removed, p.added, &r.calibrated, &r.diagnosis);
                 let stuck = self.history.get_mut(p.stuck_round);
                 if !j.kept() {
                     let note = replacements_refused_text(std::slice::from_ref(&j)).unwrap_or_default();
-                    said.push((Level::Info, format!("replacement not kept ({note}); back to the model before it")));
+                    said.push((Level::Info, format!("{} not kept ({note}); back to the model before it", if refit { "re-fit" } else { "replacement" })));
                     if let Some(round) = stuck {
                         round.verdict = format!("{}; {note}", round.verdict);
                     }
@@ -247,12 +290,16 @@ impl ModelState {
                     self.result = Some(*p.stuck);
                     return said;
                 }
-                said.push((Level::Info, format!("replacement kept: {}", j.kept_text())));
+                said.push((Level::Info, format!("{} kept: {}", if refit { "re-fit" } else { "replacement" }, j.kept_text())));
                 if let Some(round) = stuck {
                     round.verdict = format!("{}; {}", round.verdict, j.kept_text());
                     round.applied = Some(p.added);
                     round.removed = Some(p.removed);
                     round.applied_values = effect_values(&r.calibrated, p.added);
+                }
+                if refit {
+                    // The machine stayed the stuck one while the worker fitted the new one.
+                    self.replace_machine(r.started_from.clone());
                 }
             }
         }
@@ -262,6 +309,9 @@ impl ModelState {
             said.push((Level::Error, format!("find missing effect: {} not ranked, its trial failed: {why}", k.name())));
         }
         let env = d.envelope_nrmse().unwrap_or(f64::NAN);
+        if self.history.is_empty() {
+            self.loop_start = Some(r.started_from.clone());
+        }
         let effects_on = r.started_from.effects.enabled();
         let round = Round::of_diagnosis(self.history.len() + 1, effects_on.clone(), d, env);
         match self.history.last_mut() {
@@ -451,7 +501,7 @@ mod tests {
     fn answer(m: &Machine, j: f64) -> LoopResult {
         let mut diagnosis = Diagnosis { floor_objective: 3.3, objective_scatter: 0.2, verdict: "nothing significant is missing".into(), ..Default::default() };
         diagnosis.calibration.objective_after = j;
-        LoopResult { measured: "measured".into(), options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0 }
+        LoopResult { measured: "measured".into(), options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None }
     }
 
     /// Round 1 applied an unbalance with a misalignment close behind; round 2 is stuck at 17.9.
@@ -512,5 +562,58 @@ mod tests {
         let said = s.take_result(answer(&stuck, 15.0));
         assert!(said.iter().any(|(_, t)| t.contains("was not judged")), "{said:?}");
         assert_eq!((s.history[1].applied, s.history[1].removed), (None, None));
+    }
+
+    #[test]
+    fn a_refit_by_hand_is_judged_as_a_replacement_and_only_on_its_own_search() {
+        let (mut s, stuck) = stuck_state();
+        assert_eq!(s.refit_proposals(), vec![Unbalance]);
+        // No search of the history recorded its start here: the preset is the uncalibrated start.
+        let (cal, start) = s.start_refit(Unbalance).unwrap();
+        assert_eq!((cal, start.name.clone()), (stuck.clone(), crate::model::preset("mfs_inner").unwrap().name));
+        assert_eq!(s.machine, stuck, "the machine changes only when the re-fit is kept");
+        assert_eq!(s.taken_out(), vec![], "a re-fit takes nothing out");
+        assert_eq!(s.refit_effects(), vec![Unbalance]);
+        // Another search (no re-fit) is not judged as the re-fit.
+        let said = s.take_result(answer(&stuck, 15.0));
+        assert!(said.iter().any(|(_, t)| t.contains("the re-fit of unbalance was not judged")), "{said:?}");
+        // Refused: within the scatter of 17.9; the stuck model comes back and it is not offered again.
+        let (mut s, stuck) = stuck_state();
+        s.start_refit(Unbalance).unwrap();
+        let mut refitted = stuck.clone();
+        crate::compare::Param::UnbalanceKgM.set(&mut refitted, 2e-4);
+        let said = s.take_result(LoopResult { refitted: Some(Unbalance), ..answer(&refitted, 17.5) });
+        assert!(said.iter().any(|(_, t)| t.contains("re-fit not kept") && t.contains("unbalance re-fitted from the uncalibrated values reaches 17.50")), "{said:?}");
+        assert_eq!(s.machine, stuck);
+        assert_eq!(s.history.len(), 2);
+        assert_eq!(s.refit_proposals(), vec![]);
+        // Kept: the re-fitted model is the machine, the stuck round records the re-fit.
+        let (mut s, _) = stuck_state();
+        s.start_refit(Unbalance).unwrap();
+        let said = s.take_result(LoopResult { refitted: Some(Unbalance), ..answer(&refitted, 15.0) });
+        assert!(said.iter().any(|(_, t)| t.contains("re-fit kept") && t.contains("15.00 against 17.90")), "{said:?}");
+        assert_eq!(s.machine, refitted);
+        assert_eq!(s.history.len(), 3);
+        assert!(s.history[1].refitted() && s.history[1].applied == Some(Unbalance));
+        assert_eq!(s.history[1].applied_values, vec![(crate::compare::Param::UnbalanceKgM, 2e-4)]);
+        assert_eq!(s.taken_out(), vec![]);
+        assert_eq!(s.refit_effects(), vec![Unbalance]);
+    }
+
+    #[test]
+    fn the_first_search_of_a_history_is_the_uncalibrated_start_of_a_refit() {
+        let mut s = ModelState::from_preset("mfs_inner").unwrap();
+        let mut first = s.machine.clone();
+        crate::compare::Param::ResonanceHz.set(&mut first, 1234.0);
+        s.take_result(answer(&first, 10.0));
+        assert_eq!(s.loop_start.as_ref(), Some(&first));
+        let mut second = first.clone();
+        second.effects.enable(Unbalance);
+        s.take_result(answer(&second, 9.0));
+        assert_eq!(s.loop_start.as_ref(), Some(&first), "later searches leave it");
+        s.result.as_mut().unwrap().calibrated = second.clone();
+        let (_, start) = s.start_refit(Unbalance).unwrap();
+        assert_eq!(start, first);
+        assert!(s.start_refit(Misalignment).is_err(), "an effect not in the model is no re-fit");
     }
 }

@@ -66,6 +66,9 @@ pub enum Command {
     /// Model loop, when stuck: switch `remove` off and `add` on in the calibrated machine and
     /// search again against `measured`.
     ReplaceEffect { remove: EffectKind, add: EffectKind, measured: usize },
+    /// Model loop, when stuck: fit the applied `effect` anew from the uncalibrated values and
+    /// search again against `measured`.
+    RefitEffect { effect: EffectKind, measured: usize },
     /// Compute the SCF of the selected signal (`raw`) or of a time-domain stage of the last run.
     ComputeScf { source: String, params: ScfParams },
     /// Open a file dialog for a purpose (sessions, exports).

@@ -263,7 +263,8 @@ impl ModelLoopView {
         });
         let current = session.model.machine == r.started_from;
         let proposals = session.model.replacement_proposals();
-        if !proposals.is_empty() {
+        let refits = session.model.refit_proposals();
+        if !proposals.is_empty() || !refits.is_empty() {
             let reach = crate::compare::diagnose::reachable_objective(d.judged_objective(), &d.trials);
             ui.horizontal_wrapped(|ui| {
                 ui.label(format!("Stuck at {:.1} x the floor with nothing significant to add: an effect added earlier may stand in for another.", d.judged_objective() / d.floor_objective));
@@ -277,6 +278,18 @@ impl ModelLoopView {
                     if button.on_hover_text(hover).on_disabled_hover_text("choose a measured signal").clicked() {
                         if let Some(m) = measured {
                             *cmd = Some(Command::ReplaceEffect { remove: a, add: b, measured: m });
+                        }
+                    }
+                }
+                for a in refits {
+                    let button = ui.add_enabled(measured.is_some(), egui::Button::new(format!("Re-fit {} from the uncalibrated values", a.name())));
+                    let hover = format!(
+                        "fit {} anew from the first model's uncalibrated values (its main parameter scanned on a grid), then Find missing effect on it; kept if its objective with its best addition is below {reach:.2} by more than the seed scatter: a calibration bent toward a missing effect may have put it far from its truth",
+                        a.name()
+                    );
+                    if button.on_hover_text(hover).on_disabled_hover_text("choose a measured signal").clicked() {
+                        if let Some(m) = measured {
+                            *cmd = Some(Command::RefitEffect { effect: a, measured: m });
                         }
                     }
                 }
