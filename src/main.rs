@@ -221,12 +221,13 @@ struct SearchArgs {
     /// stage-1 cost. Experimental, off by default.
     #[arg(long)]
     uncalibrated_start: bool,
-    /// In a loop (`confusion --hide`, `diagnose --rounds`), when a round is stuck and no
-    /// replacement helps, also fit each applied effect anew from the uncalibrated values (its
-    /// main parameter scanned on a grid) and keep that when it reaches lower. Experimental, off
-    /// by default.
+    /// In a loop (`confusion --hide`, `diagnose --rounds`), do not re-fit the applied effects
+    /// from the uncalibrated values when a round is stuck and no replacement helps. By default
+    /// such a round fits each applied effect anew (its main parameter scanned on a grid, the
+    /// base back at its uncalibrated values), searches again, and keeps that when it reaches
+    /// lower by more than the seed scatter.
     #[arg(long)]
-    refit_when_stuck: bool,
+    no_refit_when_stuck: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
     /// path the model does not describe. Spectral-shape effects (casing modes, sensor
@@ -287,7 +288,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

@@ -199,8 +199,8 @@ pub struct LoopSpec {
     #[serde(default)]
     pub uncalibrated_start: bool,
     /// A stuck round with no kept replacement also re-fits each applied effect from the
-    /// uncalibrated values (`LoopOptions::refit_when_stuck`, experimental). Default false.
-    #[serde(default)]
+    /// uncalibrated values (`LoopOptions::refit_when_stuck`). Default true.
+    #[serde(default = "LoopSpec::default_refit_when_stuck")]
     pub refit_when_stuck: bool,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
@@ -227,6 +227,10 @@ pub struct LoopSpec {
 impl LoopSpec {
     fn default_unbend_pinned() -> bool {
         true
+    }
+
+    fn default_refit_when_stuck() -> bool {
+        crate::compare::LoopOptions::default().refit_when_stuck
     }
 
     fn default_rounds() -> usize {
@@ -527,9 +531,9 @@ mod tests {
         assert!(!spec.options(&chain).unwrap().uncalibrated_start);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nuncalibrated_start = true").unwrap();
         assert!(spec.options(&chain).unwrap().uncalibrated_start);
+        assert!(spec.options(&chain).unwrap().refit_when_stuck, "on by default");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nrefit_when_stuck = false").unwrap();
         assert!(!spec.options(&chain).unwrap().refit_when_stuck);
-        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nrefit_when_stuck = true").unwrap();
-        assert!(spec.options(&chain).unwrap().refit_when_stuck);
     }
 
     #[test]

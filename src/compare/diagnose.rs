@@ -1319,7 +1319,7 @@ struct Replacement {
 /// modulation at its physical top came in that way "in place of" the load zone, which the
 /// next round added back).
 ///
-/// **Re-fit in place** ([`LoopOptions::refit_when_stuck`], off by default). When no
+/// **Re-fit in place** ([`LoopOptions::refit_when_stuck`], on by default). When no
 /// replacement is kept, each applied effect ([`refit_candidates`]) is fitted anew from the
 /// loop's uncalibrated values ([`refit_from_uncalibrated`]), the model diagnosed again, and the
 /// result judged as a replacement of the effect by itself; the best kept one goes on, recorded
