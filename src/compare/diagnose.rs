@@ -1390,6 +1390,11 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             }
             if let Some((j, Replacement { machine: swapped, diagnosed: (cal2, d2), opts: o })) = kept {
                 round.verdict = format!("{}; {}", d.verdict, j.kept_text());
+                // What else was tried and refused.
+                let refused: Vec<ReplacementJudgement> = tried.into_iter().filter(|t| !t.kept()).collect();
+                if let Some(note) = replacements_refused_text(&refused) {
+                    round.verdict = format!("{}; {note}", round.verdict);
+                }
                 round.applied = Some(j.added);
                 round.removed = Some(j.removed);
                 round.applied_values = effect_values(&cal2, j.added);
