@@ -386,6 +386,9 @@ fn session_round_trips() {
 
     let mut g = harness(StartOptions::default());
     g.run_steps(2);
+    // A start of an earlier history does not outlive it: the reopened history has none.
+    let earlier = g.state().session.model.machine.clone();
+    g.state_mut().session.model.loop_start = Some(earlier);
     g.state_mut().execute(Command::OpenSession(p));
     wait_for(&mut g, "the session's signals", 60, |a| !a.session.signals.is_empty() && !a.worker.busy());
     let (a, b) = (&g.state().session, &h.state().session);
@@ -399,6 +402,7 @@ fn session_round_trips() {
     assert_eq!(a.model.preset, "cwru_6205_outer");
     assert_eq!(a.model.machine, b.model.machine);
     assert_eq!(a.model.history, b.model.history);
+    assert!(a.model.loop_start.is_none(), "a re-fit by hand after reopening starts from the preset");
     assert!(g.query_by_label("X130_FE_time").is_some());
     // a broken session file shows an error and keeps what is loaded
     let bad = dir.path().join("bad.twinscope.json");

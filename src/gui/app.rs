@@ -626,6 +626,8 @@ impl Workbench {
         model.simulated_id = None;
         model.pending_replacement = None;
         model.refused_replacements.clear();
+        // The file keeps no start of its history: a re-fit by hand then starts from the preset.
+        model.loop_start = None;
         let ids: Vec<u64> = f.signals.iter().map(|_| self.session.next_signal_id()).collect();
         let saved = f.signals.clone();
         let selected = f.selected;
