@@ -228,6 +228,12 @@ struct SearchArgs {
     /// lower by more than the seed scatter.
     #[arg(long)]
     no_refit_when_stuck: bool,
+    /// Experimental near-floor rule: between 1.2 × the seed floor and the floor margin's ratio,
+    /// the best trial is a finding too when it explains ≥ 80 % of the error above the floor,
+    /// switching its effect off costs ≥ 50 %, no trial is tied with it and it places no
+    /// spectral feature (README "A near-floor rule"). Off by default.
+    #[arg(long)]
+    near_floor_rule: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
     /// path the model does not describe. Spectral-shape effects (casing modes, sensor
@@ -288,7 +294,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

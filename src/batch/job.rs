@@ -202,6 +202,9 @@ pub struct LoopSpec {
     /// uncalibrated values (`LoopOptions::refit_when_stuck`). Default true.
     #[serde(default = "LoopSpec::default_refit_when_stuck")]
     pub refit_when_stuck: bool,
+    /// The experimental near-floor rule (`LoopOptions::near_floor_rule`). Default false.
+    #[serde(default)]
+    pub near_floor_rule: bool,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
     #[serde(default)]
@@ -267,7 +270,7 @@ impl LoopSpec {
         if !(1..=20).contains(&self.rounds) {
             return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
@@ -534,6 +537,10 @@ mod tests {
         assert!(spec.options(&chain).unwrap().refit_when_stuck, "on by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nrefit_when_stuck = false").unwrap();
         assert!(!spec.options(&chain).unwrap().refit_when_stuck);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
+        assert!(!spec.options(&chain).unwrap().near_floor_rule, "off by default");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nnear_floor_rule = true").unwrap();
+        assert!(spec.options(&chain).unwrap().near_floor_rule);
     }
 
     #[test]

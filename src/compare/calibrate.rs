@@ -359,6 +359,14 @@ pub struct LoopOptions {
     /// cases that ended stuck, two ended at their true machine's level with it, 2.26 and 2.20
     /// against 4.88 and 4.42, and two were unchanged; no find lost, no false claim).
     pub refit_when_stuck: bool,
+    /// The near-floor rule ([`super::diagnose::near_floor_finding`]): in a round whose
+    /// calibrated objective is at least 1.2 × its seed floor (the ratio of a 0.2 margin) but
+    /// below `floor_margin`'s ratio, the best trial is a finding too when it explains at least
+    /// 80 % of the error above the floor, switching its effect off again costs at least 50 %,
+    /// no other trial is tied with it, and its effect places no spectral feature (a casing
+    /// mode or a sensor roll-off can stand in for a base resonance a few percent off).
+    /// Default: off (experimental; README "A near-floor rule").
+    pub near_floor_rule: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
     pub decision_rule: DecisionRule,
@@ -460,7 +468,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 
