@@ -468,6 +468,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("second start: every trial also from the uncalibrated values, pinned or not (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).uncalibrated_start);
+    // The experimental near-floor rule: off until ticked.
+    assert!(!o.near_floor_rule);
+    h.get_by_label("near-floor rule: a decisive, untied trial is a finding from 1.2 × the floor (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).near_floor_rule);
     // The floor margin of the decision: the library's default until changed.
     assert_eq!(o.floor_margin, 0.5);
     set(&mut h, "floor margin", 0.2);

@@ -56,6 +56,9 @@ pub struct Settings {
     pub loop_random_effect_realisations: usize,
     /// Model loop: the floor margin of the decision (`LoopOptions::floor_margin`).
     pub loop_floor_margin: f64,
+    /// Model loop: the near-floor rule of the decision (`LoopOptions::near_floor_rule`,
+    /// experimental).
+    pub loop_near_floor_rule: bool,
 }
 
 impl Default for Settings {
@@ -81,6 +84,7 @@ impl Default for Settings {
             loop_realisations: LoopOptions::default().realisations,
             loop_random_effect_realisations: LoopOptions::default().random_effect_realisations,
             loop_floor_margin: LoopOptions::default().floor_margin,
+            loop_near_floor_rule: LoopOptions::default().near_floor_rule,
         }
     }
 }
@@ -140,6 +144,7 @@ impl Settings {
             realisations: self.loop_realisations,
             random_effect_realisations: self.loop_random_effect_realisations,
             floor_margin: self.loop_floor_margin,
+            near_floor_rule: self.loop_near_floor_rule,
             ..Default::default()
         }
     }

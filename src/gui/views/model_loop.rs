@@ -157,6 +157,8 @@ impl ModelLoopView {
                 .on_hover_text("each trial scans its effect on a grid and re-does the calibration with it (about seven times slower): for a model the calibration bent to stand in for what is missing");
             ui.checkbox(&mut s.loop_uncalibrated_start, "second start: every trial also from the uncalibrated values, pinned or not (experimental)")
                 .on_hover_text("each trial also scans its effect on a grid from the uncalibrated values and fits it as usual (about twice a plain trial's cost), and the better fit is kept: for a calibration that bent the model toward what is missing without reaching an edge");
+            ui.checkbox(&mut s.loop_near_floor_rule, "near-floor rule: a decisive, untied trial is a finding from 1.2 × the floor (experimental)")
+                .on_hover_text("under the floor margin, from 1.2 × the seed floor: the best trial is a finding too when it explains at least 80 % of the error above the floor, switching its effect off again costs at least 50 %, no other trial is tied with it, and it places no spectral feature (a casing mode or roll-off can stand in for a resonance a few percent off)");
             let mut all = s.loop_candidates.is_empty();
             if ui.checkbox(&mut all, "try every applicable effect the model lacks").changed() {
                 s.loop_candidates = if all { Vec::new() } else { EffectKind::ALL.into_iter().filter(|k| !machine.effects.is_on(*k) && Effects::applicable(*k, machine)).collect() };
