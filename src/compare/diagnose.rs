@@ -650,7 +650,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
                 if recalibrates(*k) {
                     fit_evaluations(&t, &recalibration_parameters(*k, &t, opts), &[], 1, opts)
                 } else {
-                    fit_trial_evaluations(&t, &Param::of_effect(*k), &TRIAL_REFINE, opts)
+                    fit_trial_scanning_evaluations(&t, &Param::of_effect(*k), &TRIAL_REFINE, &plain_trial_scan(*k, opts), opts)
                 }
             })
             .sum::<usize>()
@@ -750,7 +750,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
                 if k == EffectKind::PathModulation {
                     set_path_modulation_to_shaft_rate(&mut t);
                 }
-                plain_fit(t, &[], &TRIAL_REFINE)
+                plain_fit(t, &plain_trial_scan(k, opts), &TRIAL_REFINE)
             };
             // From the uncalibrated values, the effect's main parameter scanned, then the
             // plain trial's fit (no calibration sweep). The trial carries the calibration
@@ -860,6 +860,13 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
     Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective, second_look: None }))
+}
+
+/// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
+/// its line search: a periodic force's amplitude with
+/// [`LoopOptions::scan_force_amplitudes`], else none.
+fn plain_trial_scan(k: EffectKind, opts: &LoopOptions) -> Vec<Param> {
+    Param::main_of_effect(k).filter(|p| opts.scan_force_amplitudes && p.periodic_force_amplitude()).into_iter().collect()
 }
 
 /// [`TRIAL_REFINE`] and then each of `others` not already in it: the parameters besides the
