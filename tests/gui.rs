@@ -473,6 +473,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("near-floor rule: a decisive, untied trial is a finding from 1.2 × the floor (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).near_floor_rule);
+    // The experimental scan of periodic forces: off until ticked.
+    assert!(!o.scan_force_amplitudes);
+    h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).scan_force_amplitudes);
     // The floor margin of the decision: the library's default until changed.
     assert_eq!(o.floor_margin, 0.5);
     set(&mut h, "floor margin", 0.2);

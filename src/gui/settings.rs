@@ -59,6 +59,9 @@ pub struct Settings {
     /// Model loop: the near-floor rule of the decision (`LoopOptions::near_floor_rule`,
     /// experimental).
     pub loop_near_floor_rule: bool,
+    /// Model loop: the plain trial scans a periodic force's amplitude on a grid
+    /// (`LoopOptions::scan_force_amplitudes`, experimental).
+    pub loop_scan_force_amplitudes: bool,
 }
 
 impl Default for Settings {
@@ -85,6 +88,7 @@ impl Default for Settings {
             loop_random_effect_realisations: LoopOptions::default().random_effect_realisations,
             loop_floor_margin: LoopOptions::default().floor_margin,
             loop_near_floor_rule: LoopOptions::default().near_floor_rule,
+            loop_scan_force_amplitudes: LoopOptions::default().scan_force_amplitudes,
         }
     }
 }
@@ -145,6 +149,7 @@ impl Settings {
             random_effect_realisations: self.loop_random_effect_realisations,
             floor_margin: self.loop_floor_margin,
             near_floor_rule: self.loop_near_floor_rule,
+            scan_force_amplitudes: self.loop_scan_force_amplitudes,
             ..Default::default()
         }
     }
