@@ -699,3 +699,27 @@ fn a_scanned_force_trial_expects_exactly_the_evaluations_it_makes() {
     assert!(expected > plain, "{expected} evaluations with the scan, {plain} without");
     assert_eq!(calls, expected);
 }
+
+/// `LoopOptions::unbend_when_stuck`: a hidden load zone the only candidate (an unbalance) cannot
+/// explain leaves the diagnosis stuck with a calibration that pins nothing; with the option
+/// the search is done again with every trial also from the uncalibrated values, says so, and
+/// every evaluation of both searches is expected; without it, one search.
+#[test]
+fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
+    let (m, _, mut opts) = quick_case(19, vec![EffectKind::Unbalance]);
+    let (mut truth, model_m, _, _) = hidden::make_case(&m, Some(EffectKind::LoadZone), 19);
+    truth.duration_s = 1.0;
+    let measured = model::simulate(&truth).unwrap();
+    let (plain, plain_calls, plain_expected) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("plain: pinned {:?}; {}", plain.calibration.at_bound, plain.verdict);
+    assert!(plain.best.is_none() && !plain.unbent && plain.trials.len() == 1, "{}", plain.verdict);
+    assert!(plain.calibration.at_bound.is_empty(), "the calibration pinned {:?}: unbending would act anyway", plain.calibration.at_bound);
+    assert!(plain.judged_objective() > 1.5 * plain.floor_objective, "not stuck: {:.2} against a floor of {:.2}", plain.judged_objective(), plain.floor_objective);
+    assert_eq!(plain_calls, plain_expected);
+    opts.unbend_when_stuck = true;
+    let (again, calls, expected) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("unbend when stuck: {}", again.verdict);
+    assert!(again.unbent && again.verdict.contains("started again from the uncalibrated values"), "{}", again.verdict);
+    assert_eq!(calls, expected);
+    assert!(calls > 2 * plain_calls - 2, "{calls} evaluations against {plain_calls}: a second, unbent search");
+}

@@ -209,6 +209,10 @@ pub struct LoopSpec {
     /// (`LoopOptions::scan_force_amplitudes`, experimental). Default false.
     #[serde(default)]
     pub scan_force_amplitudes: bool,
+    /// A stuck diagnosis whose calibration pins nothing is done again unbent
+    /// (`LoopOptions::unbend_when_stuck`, experimental). Default false.
+    #[serde(default)]
+    pub unbend_when_stuck: bool,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
     #[serde(default)]
@@ -274,7 +278,7 @@ impl LoopSpec {
         if !(1..=20).contains(&self.rounds) {
             return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
         }
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
@@ -548,6 +552,9 @@ mod tests {
         assert!(!spec.options(&chain).unwrap().scan_force_amplitudes, "off by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nscan_force_amplitudes = true").unwrap();
         assert!(spec.options(&chain).unwrap().scan_force_amplitudes);
+        assert!(!spec.options(&chain).unwrap().unbend_when_stuck, "off by default");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_stuck = true").unwrap();
+        assert!(spec.options(&chain).unwrap().unbend_when_stuck);
     }
 
     #[test]

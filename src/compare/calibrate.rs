@@ -383,6 +383,13 @@ pub struct LoopOptions {
     /// evaluations for those parameters. Default: off (experimental; README "A bent
     /// calibration that pins nothing").
     pub scan_force_amplitudes: bool,
+    /// A diagnosis that is stuck (nothing significant, the objective still above the floor
+    /// margin's ratio) with a calibration that pins nothing is done again with every trial
+    /// also started from the uncalibrated values, as unbending does when something is pinned
+    /// (needs [`LoopOptions::unbend_pinned`]). A calibration can bend the base to do without
+    /// two forces without reaching an edge (README "A bent calibration that pins nothing").
+    /// Costs a second search, in stuck rounds only. Default: off (experimental).
+    pub unbend_when_stuck: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
     pub decision_rule: DecisionRule,
@@ -484,7 +491,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

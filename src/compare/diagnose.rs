@@ -617,22 +617,40 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// [`LoopOptions::random_effect_realisations`] K ≥ 2 and one realisation, a diagnosis whose
 /// best-ranked trial is a random effect ([`EffectKind::draws_at_random`]) is done again with K
 /// realisations, and that one is returned ([`Diagnosis::second_look`]).
+///
+/// With [`LoopOptions::unbend_when_stuck`], a diagnosis that is stuck (nothing significant,
+/// the objective still above the floor margin's ratio) and did not unbend is done again with
+/// every trial also started from the uncalibrated values, as when the calibration pins a
+/// parameter, and that one is returned.
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
-    let (cal, d) = diagnose_once(m, reference, opts, progress)?;
+    let (cal, d) = diagnose_looking_twice(m, reference, opts, false, progress)?;
+    if !(opts.unbend_when_stuck && opts.unbend_pinned && !d.unbent && !d.trials.is_empty() && stuck(&d, opts)) {
+        return Ok((cal, d));
+    }
+    let (cal, mut d2) = diagnose_looking_twice(m, reference, opts, true, progress)?;
+    d2.verdict = format!("{} (stuck with the trials from the calibrated model, which pins nothing: every trial started again from the uncalibrated values too; from the calibrated model alone: {})", d2.verdict, d.verdict);
+    Ok((cal, d2))
+}
+
+/// [`diagnose_once`], with the second look for random effects (see [`diagnose_with`]).
+fn diagnose_looking_twice(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend: bool, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
+    let (cal, d) = diagnose_once(m, reference, opts, unbend, progress)?;
     let k = opts.random_effect_realisations;
     let leader = d.trials.first().map(|t| t.effect).filter(|e| e.draws_at_random());
     let (Some(leader), true) = (leader, opts.realisations == 1 && k >= 2) else {
         return Ok((cal, d));
     };
     let again = LoopOptions { realisations: k, ..opts.clone() };
-    let (cal, mut d2) = diagnose_once(m, reference, &again, progress)?;
+    let (cal, mut d2) = diagnose_once(m, reference, &again, unbend, progress)?;
     d2.verdict = format!("{} (a second look with {k} realisations: {} led with one, where a random effect is fitted to one draw; with one: {})", d2.verdict, leader.name(), d.verdict);
     d2.second_look = Some(SecondLook { realisations: k, leader, verdict_with_one: d.verdict });
     Ok((cal, d2))
 }
 
-/// One diagnosis with `opts.realisations` realisations (see [`diagnose_with`]).
-fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
+/// One diagnosis with `opts.realisations` realisations (see [`diagnose_with`]); `unbend`
+/// starts every trial from the uncalibrated values too, whether or not the calibration pins
+/// anything.
+fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend: bool, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     opts.validate()?;
     let measured = reference;
     let cal_params = calibration_parameters_for(m, opts);
@@ -661,7 +679,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, progres
     let (cal_m, cal) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
     // A calibration that pinned a parameter may have bent it to stand in for the missing
     // effect; with `unbend_pinned` every trial then starts from the uncalibrated values.
-    let unbent = opts.unbend_pinned && !cal.at_bound.is_empty();
+    let unbent = unbend || (opts.unbend_pinned && !cal.at_bound.is_empty());
     // The start of a trial that re-does the calibration with its effect (the casing trial
     // always; every trial when unbent): the round's uncalibrated machine with the effect on,
     // its main parameter scanned on a grid.

@@ -62,6 +62,9 @@ pub struct Settings {
     /// Model loop: the plain trial scans a periodic force's amplitude on a grid
     /// (`LoopOptions::scan_force_amplitudes`, experimental).
     pub loop_scan_force_amplitudes: bool,
+    /// Model loop: a stuck diagnosis is done again unbent (`LoopOptions::unbend_when_stuck`,
+    /// experimental).
+    pub loop_unbend_when_stuck: bool,
 }
 
 impl Default for Settings {
@@ -89,6 +92,7 @@ impl Default for Settings {
             loop_floor_margin: LoopOptions::default().floor_margin,
             loop_near_floor_rule: LoopOptions::default().near_floor_rule,
             loop_scan_force_amplitudes: LoopOptions::default().scan_force_amplitudes,
+            loop_unbend_when_stuck: LoopOptions::default().unbend_when_stuck,
         }
     }
 }
@@ -150,6 +154,7 @@ impl Settings {
             floor_margin: self.loop_floor_margin,
             near_floor_rule: self.loop_near_floor_rule,
             scan_force_amplitudes: self.loop_scan_force_amplitudes,
+            unbend_when_stuck: self.loop_unbend_when_stuck,
             ..Default::default()
         }
     }
