@@ -387,8 +387,9 @@ pub struct LoopOptions {
     /// margin's ratio) with a calibration that pins nothing is done again with every trial
     /// also started from the uncalibrated values, as unbending does when something is pinned
     /// (needs [`LoopOptions::unbend_pinned`]). A calibration can bend the base to do without
-    /// two forces without reaching an edge (README "A bent calibration that pins nothing").
-    /// Costs a second search, in stuck rounds only. Default: off (experimental).
+    /// two forces without reaching an edge (README "A bent calibration that pins nothing",
+    /// "Unbend when stuck"). Costs a second search, in stuck rounds only. Default: off
+    /// (experimental).
     pub unbend_when_stuck: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
