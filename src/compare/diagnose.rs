@@ -1357,6 +1357,15 @@ pub fn refit_from_uncalibrated(cal: &Machine, start: &Machine, a: EffectKind, re
     Ok(fit_trial_scanning(&t, reference, &Param::of_effect(a), &TRIAL_REFINE, &scan, opts, progress)?.0)
 }
 
+/// The options of the diagnoses a stuck round makes of its replacement and re-fit candidates:
+/// those of the loop without [`LoopOptions::unbend_when_stuck`]. The round's own diagnosis
+/// has already been searched unbent when the option is on; searching every candidate model
+/// unbent as well cost the seen pair 3805 an unbent search per candidate (104 min for one
+/// case, README "Unbend when stuck").
+fn searched_plainly(opts: &LoopOptions) -> LoopOptions {
+    LoopOptions { unbend_when_stuck: false, ..opts.clone() }
+}
+
 /// A replacement the loop keeps: the new machine, its diagnosis (calibrated machine,
 /// diagnosis) and the options it was run with.
 struct Replacement {
@@ -1393,6 +1402,11 @@ struct Replacement {
 /// loop's uncalibrated values ([`refit_from_uncalibrated`]), the model diagnosed again, and the
 /// result judged as a replacement of the effect by itself; the best kept one goes on, recorded
 /// with `removed == applied`.
+///
+/// With [`LoopOptions::unbend_when_stuck`] the round's own diagnosis may be searched again
+/// unbent (see [`diagnose_with`]); the replacement and re-fit diagnoses of a stuck round are
+/// searched plainly ([`searched_plainly`]), so a stuck round pays one unbent search, not one
+/// per candidate model.
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     opts.validate()?;
     let reference = Reference::new(measured, &opts.compare)?;
@@ -1438,7 +1452,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 o.refit_effects.push(b);
                 // The effect taken out is not tried again (see `judge_replacement`).
                 exclude_candidates(&mut o, &swapped, &[a]);
-                let (cal2, d2) = diagnose_with(&swapped, &reference, &o, progress)?;
+                let (cal2, d2) = diagnose_with(&swapped, &reference, &searched_plainly(&o), progress)?;
                 let j = judge_replacement(&d, a, b, &cal2, &d2);
                 if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
                     kept = Some((j.clone(), Replacement { machine: swapped, diagnosed: (cal2, d2), opts: o }));
@@ -1449,7 +1463,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             if kept.is_none() && opts.refit_when_stuck {
                 for a in refit_candidates(&history, &current) {
                     let refitted = refit_from_uncalibrated(&cal, m, a, &reference, &opts, progress)?;
-                    let (cal2, d2) = diagnose_with(&refitted, &reference, &opts, progress)?;
+                    let (cal2, d2) = diagnose_with(&refitted, &reference, &searched_plainly(&opts), progress)?;
                     let j = judge_replacement(&d, a, a, &cal2, &d2);
                     if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
                         kept = Some((j.clone(), Replacement { machine: refitted, diagnosed: (cal2, d2), opts: opts.clone() }));
@@ -1835,6 +1849,14 @@ mod tests {
         r.applied_values.clear();
         assert_eq!(r.change_with_values("-"), r.change("-"));
         assert_eq!(round(3, vec![], None, None).change_with_values("nothing"), "nothing");
+    }
+
+    #[test]
+    fn a_stuck_rounds_candidate_models_are_searched_without_the_unbent_redo_and_nothing_else_changes() {
+        let opts = LoopOptions { unbend_when_stuck: true, scan_force_amplitudes: true, refit_effects: vec![EffectKind::Misalignment], floor_margin: 0.7, ..LoopOptions::default() };
+        let plain = searched_plainly(&opts);
+        assert!(!plain.unbend_when_stuck);
+        assert_eq!(LoopOptions { unbend_when_stuck: true, ..plain }, opts);
     }
 
     #[test]
