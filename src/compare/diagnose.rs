@@ -623,43 +623,63 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// every trial also started from the uncalibrated values, as when the calibration pins a
 /// parameter, and that one is returned.
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
-    let (cal, d) = diagnose_looking_twice(m, reference, opts, false, progress)?;
+    let mut calibrated = Vec::new();
+    let (cal, d) = diagnose_looking_twice(m, reference, opts, false, &mut calibrated, progress)?;
     if !(opts.unbend_when_stuck && opts.unbend_pinned && !d.unbent && !d.trials.is_empty() && stuck(&d, opts)) {
         return Ok((cal, d));
     }
-    let (cal, mut d2) = diagnose_looking_twice(m, reference, opts, true, progress)?;
+    // The unbent search starts from the same calibrations (deterministic: done again, they
+    // would give the same values).
+    let (cal, mut d2) = diagnose_looking_twice(m, reference, opts, true, &mut calibrated, progress)?;
     d2.verdict = format!("{} (stuck with the trials from the calibrated model, which pins nothing: every trial started again from the uncalibrated values too; from the calibrated model alone: {})", d2.verdict, d.verdict);
     Ok((cal, d2))
 }
 
 /// [`diagnose_once`], with the second look for random effects (see [`diagnose_with`]).
-fn diagnose_looking_twice(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend: bool, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
-    let (cal, d) = diagnose_once(m, reference, opts, unbend, progress)?;
+fn diagnose_looking_twice(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend: bool, calibrated: &mut Vec<CalibratedRound>, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
+    let (cal, d) = diagnose_once(m, reference, opts, unbend, calibrated, progress)?;
     let k = opts.random_effect_realisations;
     let leader = d.trials.first().map(|t| t.effect).filter(|e| e.draws_at_random());
     let (Some(leader), true) = (leader, opts.realisations == 1 && k >= 2) else {
         return Ok((cal, d));
     };
     let again = LoopOptions { realisations: k, ..opts.clone() };
-    let (cal, mut d2) = diagnose_once(m, reference, &again, unbend, progress)?;
+    let (cal, mut d2) = diagnose_once(m, reference, &again, unbend, calibrated, progress)?;
     d2.verdict = format!("{} (a second look with {k} realisations: {} led with one, where a random effect is fitted to one draw; with one: {})", d2.verdict, leader.name(), d.verdict);
     d2.second_look = Some(SecondLook { realisations: k, leader, verdict_with_one: d.verdict });
     Ok((cal, d2))
 }
 
+/// The model evaluations of a diagnosis's calibrated start ([`diagnose`]): the calibration of
+/// `m`, the calibrated model's comparison, its seed floor and its scatter.
+pub fn calibration_evaluations(m: &Machine, opts: &LoopOptions) -> usize {
+    fit_evaluations(m, &calibration_parameters_for(m, opts), &[], opts.sweeps, opts) + 1 + FLOOR_SEEDS.len() + SCATTER_SEEDS.len()
+}
+
+/// The calibrated start of a diagnosis of one machine, with one number of realisations: the
+/// calibrated machine and its fit, its comparison with the measurement, the seed floor and
+/// the objective's scatter.
+struct CalibratedRound {
+    realisations: usize,
+    machine: Machine,
+    fit: Fit,
+    comparison: Comparison,
+    floor: (f64, Vec<(String, f64)>),
+    scatter: f64,
+}
+
 /// One diagnosis with `opts.realisations` realisations (see [`diagnose_with`]); `unbend`
 /// starts every trial from the uncalibrated values too, whether or not the calibration pins
-/// anything.
-fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend: bool, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
+/// anything. The calibrated start is taken from `calibrated` when it holds one with as many
+/// realisations (of the same machine `m`, made by an earlier call), else made and added.
+fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend: bool, calibrated: &mut Vec<CalibratedRound>, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     opts.validate()?;
     let measured = reference;
     let cal_params = calibration_parameters_for(m, opts);
     let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, m) && (opts.candidates.is_empty() || opts.candidates.contains(k))).collect();
+    let known = calibrated.iter().position(|c| c.realisations == opts.realisations);
     progress.expect(
-        fit_evaluations(m, &cal_params, &[], opts.sweeps, opts)
-            + 1
-            + FLOOR_SEEDS.len()
-            + SCATTER_SEEDS.len()
+        if known.is_some() { 0 } else { calibration_evaluations(m, opts) }
             + candidates
             .iter()
             .map(|k| {
@@ -676,7 +696,26 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             + candidates.len()
             + if opts.realisations >= 2 { 1 + candidates.len() } else { 0 },
     );
-    let (cal_m, cal) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
+    let start = match known {
+        Some(i) => &calibrated[i],
+        None => {
+            let (machine, fit) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
+            let (comparison, _) = evaluate(&machine, measured, opts)?;
+            progress.tick();
+            let floor = seed_floor(&machine, measured.measured(), &comparison, opts)?;
+            for _ in FLOOR_SEEDS {
+                progress.tick();
+            }
+            let scatter = objective_scatter(&machine, measured, objective(&comparison, &opts.weights), opts)?;
+            for _ in SCATTER_SEEDS {
+                progress.tick();
+            }
+            calibrated.push(CalibratedRound { realisations: opts.realisations, machine, fit, comparison, floor, scatter });
+            calibrated.last().expect("just pushed")
+        }
+    };
+    let (cal_m, cal, c) = (start.machine.clone(), start.fit.clone(), &start.comparison);
+    let ((floor, floor_domains), scatter) = (start.floor.clone(), start.scatter);
     // A calibration that pinned a parameter may have bent it to stand in for the missing
     // effect; with `unbend_pinned` every trial then starts from the uncalibrated values.
     let unbent = unbend || (opts.unbend_pinned && !cal.at_bound.is_empty());
@@ -711,20 +750,10 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             .sum();
         progress.expect(extra);
     }
-    let (c, _) = evaluate(&cal_m, measured, opts)?;
-    progress.tick();
     let (fams, shaft) = machine_families(&cal_m);
-    let map = residual_map(&c, &fams, shaft);
-    let j0 = objective(&c, &opts.weights);
+    let map = residual_map(c, &fams, shaft);
+    let j0 = objective(c, &opts.weights);
     let env0 = c.envelope_nrmse();
-    let (floor, floor_domains) = seed_floor(&cal_m, measured.measured(), &c, opts)?;
-    for _ in FLOOR_SEEDS {
-        progress.tick();
-    }
-    let scatter = objective_scatter(&cal_m, measured, j0, opts)?;
-    for _ in SCATTER_SEEDS {
-        progress.tick();
-    }
     let excess = j0 - floor;
     // Builds the reported trial from a fitted machine and its comparison numbers.
     let make_trial = |k: EffectKind, fm: &Machine, f: &Fit, released: &[Param]| {
@@ -877,7 +906,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction, held_out_objective, second_look: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
