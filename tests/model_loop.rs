@@ -726,12 +726,7 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
     // then one sweep with every calibration parameter).
     let mut t = model_m.clone();
     t.effects.enable(EffectKind::Unbalance);
-    let mut ps = Param::of_effect(EffectKind::Unbalance);
-    for p in twinscope::compare::calibrate::calibration_parameters_for(&t, &opts) {
-        if !ps.contains(&p) {
-            ps.push(p);
-        }
-    }
+    let ps = twinscope::compare::diagnose::recalibration_parameters(EffectKind::Unbalance, &t, &opts);
     let unbent_start = twinscope::compare::calibrate::fit_evaluations(&t, &ps, &[Param::UnbalanceKgM], 1, &opts);
     let calibration = twinscope::compare::diagnose::calibration_evaluations(&model_m, &opts);
     assert_eq!(calls, 2 * plain_calls - calibration + unbent_start, "the unbent search re-did the calibration ({calibration} evaluations) or missed its second start ({unbent_start})");

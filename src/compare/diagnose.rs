@@ -992,7 +992,7 @@ pub fn recalibrates(k: EffectKind) -> bool {
 }
 
 /// The parameters a re-calibrating trial fits, in order: the effect's, then the calibration's.
-fn recalibration_parameters(k: EffectKind, m: &Machine, opts: &LoopOptions) -> Vec<Param> {
+pub fn recalibration_parameters(k: EffectKind, m: &Machine, opts: &LoopOptions) -> Vec<Param> {
     let mut ps = Param::of_effect(k);
     for p in calibration_parameters_for(m, opts) {
         if !ps.contains(&p) {
