@@ -241,8 +241,8 @@ struct SearchArgs {
     #[arg(long)]
     scan_forces: bool,
     /// Experimental: a stuck diagnosis whose calibration pins nothing is done again with every
-    /// trial also started from the uncalibrated values (README "Unbend when stuck"). Off by
-    /// default.
+    /// trial also started from the uncalibrated values, a stuck one-realisation search before
+    /// any second look (README "Unbend when stuck"). Off by default.
     #[arg(long)]
     unbend_when_stuck: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,

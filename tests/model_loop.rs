@@ -731,3 +731,52 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
     let calibration = twinscope::compare::diagnose::calibration_evaluations(&model_m, &opts);
     assert_eq!(calls, 2 * plain_calls - calibration + unbent_start, "the unbent search re-did the calibration ({calibration} evaluations) or missed its second start ({unbent_start})");
 }
+
+/// `LoopOptions::unbend_when_stuck` before the second look (session 31): a hidden load zone
+/// that the only candidate, a slip, cannot explain leaves the one-realisation search stuck with
+/// the slip leading. Without the option the second look (two realisations) follows it; with
+/// the option the stuck search is first done again unbent, and the second look follows that
+/// unbent search, unbent too — no plain search with two realisations is made. Every
+/// evaluation is counted and expected.
+#[test]
+fn a_stuck_search_is_unbent_before_its_second_look() {
+    use twinscope::compare::{calibrate, diagnose};
+    let (m, _, mut opts) = quick_case(19, vec![EffectKind::Slip]);
+    let (mut truth, model_m, _, _) = hidden::make_case(&m, Some(EffectKind::LoadZone), 19);
+    truth.duration_s = 1.0;
+    let measured = model::simulate(&truth).unwrap();
+    // The one-realisation search alone, and the plain search with two.
+    let (one, one_calls, _) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("one realisation: {}", one.verdict);
+    assert!(one.best.is_none() && !one.unbent && one.trials.first().map(|t| t.effect) == Some(EffectKind::Slip), "{}", one.verdict);
+    assert!(one.calibration.at_bound.is_empty(), "the calibration pinned {:?}: unbending would act anyway", one.calibration.at_bound);
+    assert!(one.judged_objective() > 1.5 * one.floor_objective, "not stuck: {:.2} against a floor of {:.2}", one.judged_objective(), one.floor_objective);
+    let two_opts = LoopOptions { realisations: 2, ..opts.clone() };
+    let (_, two_calls, _) = diagnose_counting(&model_m, &measured, &two_opts);
+    // Without the option: the second look follows the plain search.
+    opts.random_effect_realisations = 2;
+    let (looked, _, _) = diagnose_counting(&model_m, &measured, &opts);
+    let look = looked.second_look.clone().expect("the slip led: a second look");
+    assert!(!looked.unbent && !look.verdict_with_one.contains("uncalibrated"), "{}", looked.verdict);
+    // With it: plain, unbent, then the unbent second look.
+    opts.unbend_when_stuck = true;
+    let (d, calls, expected) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("unbent first: {}", d.verdict);
+    assert_eq!(calls, expected);
+    let look = d.second_look.clone().expect("the slip led the unbent search too: a second look");
+    assert_eq!((look.realisations, look.leader), (2, EffectKind::Slip));
+    assert!(d.unbent, "the second look was not unbent: {}", d.verdict);
+    assert!(look.verdict_with_one.contains("started again from the uncalibrated values") && look.verdict_with_one.contains(&one.verdict), "the second look did not follow the unbent search: {}", look.verdict_with_one);
+    // The count: the plain one-realisation search; the unbent one without the calibrated start
+    // it takes over, plus the slip trial from the uncalibrated values; the search with two
+    // realisations (its own calibrated start) plus the same second start with two.
+    let mut t = model_m.clone();
+    t.effects.enable(EffectKind::Slip);
+    let unbent_start = |o: &LoopOptions| calibrate::fit_evaluations(&t, &diagnose::recalibration_parameters(EffectKind::Slip, &t, o), &[Param::SlipPercent], 1, o);
+    let calibration = diagnose::calibration_evaluations(&model_m, &opts);
+    assert_eq!(
+        calls,
+        one_calls + (one_calls - calibration + unbent_start(&opts)) + two_calls + unbent_start(&two_opts),
+        "a plain search with two realisations was made, or an unbent start missed"
+    );
+}

@@ -388,8 +388,9 @@ pub struct LoopOptions {
     /// also started from the uncalibrated values, as unbending does when something is pinned
     /// (needs [`LoopOptions::unbend_pinned`]). A calibration can bend the base to do without
     /// two forces without reaching an edge (README "A bent calibration that pins nothing",
-    /// "Unbend when stuck"). Costs a second search, in stuck rounds only. Default: off
-    /// (experimental).
+    /// "Unbend when stuck"). A stuck one-realisation search is unbent before any second look
+    /// for random effects ([`super::diagnose::diagnose_with`]). Costs a second search, in
+    /// stuck rounds only. Default: off (experimental).
     pub unbend_when_stuck: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
