@@ -700,21 +700,34 @@ fn a_scanned_force_trial_expects_exactly_the_evaluations_it_makes() {
     assert_eq!(calls, expected);
 }
 
+/// A hidden load zone (seed 19) that the only candidate `k` cannot explain: the model
+/// without it, the one-second measurement, and [`quick_case`]'s options.
+fn hidden_load_zone_case(k: EffectKind) -> (model::Machine, twinscope::signal::Signal, LoopOptions) {
+    let (m, _, opts) = quick_case(19, vec![k]);
+    let (mut truth, model_m, _, _) = hidden::make_case(&m, Some(EffectKind::LoadZone), 19);
+    truth.duration_s = 1.0;
+    (model_m, model::simulate(&truth).unwrap(), opts)
+}
+
+/// `d` found nothing, is still above its floor margin (stuck), and neither unbent nor pinned
+/// anything: only `LoopOptions::unbend_when_stuck` unbends it.
+fn assert_stuck_pinning_nothing(d: &twinscope::compare::Diagnosis) {
+    assert!(d.best.is_none() && !d.unbent, "{}", d.verdict);
+    assert!(d.calibration.at_bound.is_empty(), "the calibration pinned {:?}: unbending would act anyway", d.calibration.at_bound);
+    assert!(d.judged_objective() > 1.5 * d.floor_objective, "not stuck: {:.2} against a floor of {:.2}", d.judged_objective(), d.floor_objective);
+}
+
 /// `LoopOptions::unbend_when_stuck`: a hidden load zone the only candidate (an unbalance) cannot
 /// explain leaves the diagnosis stuck with a calibration that pins nothing; with the option
 /// the search is done again with every trial also from the uncalibrated values, says so, and
 /// every evaluation of both searches is expected; without it, one search.
 #[test]
 fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
-    let (m, _, mut opts) = quick_case(19, vec![EffectKind::Unbalance]);
-    let (mut truth, model_m, _, _) = hidden::make_case(&m, Some(EffectKind::LoadZone), 19);
-    truth.duration_s = 1.0;
-    let measured = model::simulate(&truth).unwrap();
+    let (model_m, measured, mut opts) = hidden_load_zone_case(EffectKind::Unbalance);
     let (plain, plain_calls, plain_expected) = diagnose_counting(&model_m, &measured, &opts);
     eprintln!("plain: pinned {:?}; {}", plain.calibration.at_bound, plain.verdict);
-    assert!(plain.best.is_none() && !plain.unbent && plain.trials.len() == 1, "{}", plain.verdict);
-    assert!(plain.calibration.at_bound.is_empty(), "the calibration pinned {:?}: unbending would act anyway", plain.calibration.at_bound);
-    assert!(plain.judged_objective() > 1.5 * plain.floor_objective, "not stuck: {:.2} against a floor of {:.2}", plain.judged_objective(), plain.floor_objective);
+    assert!(plain.trials.len() == 1, "{}", plain.verdict);
+    assert_stuck_pinning_nothing(&plain);
     assert_eq!(plain_calls, plain_expected);
     opts.unbend_when_stuck = true;
     let (again, calls, expected) = diagnose_counting(&model_m, &measured, &opts);
@@ -741,16 +754,12 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
 #[test]
 fn a_stuck_search_is_unbent_before_its_second_look() {
     use twinscope::compare::{calibrate, diagnose};
-    let (m, _, mut opts) = quick_case(19, vec![EffectKind::Slip]);
-    let (mut truth, model_m, _, _) = hidden::make_case(&m, Some(EffectKind::LoadZone), 19);
-    truth.duration_s = 1.0;
-    let measured = model::simulate(&truth).unwrap();
+    let (model_m, measured, mut opts) = hidden_load_zone_case(EffectKind::Slip);
     // The one-realisation search alone, and the plain search with two.
     let (one, one_calls, _) = diagnose_counting(&model_m, &measured, &opts);
     eprintln!("one realisation: {}", one.verdict);
-    assert!(one.best.is_none() && !one.unbent && one.trials.first().map(|t| t.effect) == Some(EffectKind::Slip), "{}", one.verdict);
-    assert!(one.calibration.at_bound.is_empty(), "the calibration pinned {:?}: unbending would act anyway", one.calibration.at_bound);
-    assert!(one.judged_objective() > 1.5 * one.floor_objective, "not stuck: {:.2} against a floor of {:.2}", one.judged_objective(), one.floor_objective);
+    assert!(one.trials.first().map(|t| t.effect) == Some(EffectKind::Slip), "{}", one.verdict);
+    assert_stuck_pinning_nothing(&one);
     let two_opts = LoopOptions { realisations: 2, ..opts.clone() };
     let (_, two_calls, _) = diagnose_counting(&model_m, &measured, &two_opts);
     // Without the option: the second look follows the plain search.
