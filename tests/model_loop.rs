@@ -734,15 +734,20 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
     eprintln!("unbend when stuck: {}", again.verdict);
     assert!(again.unbent && again.verdict.contains("started again from the uncalibrated values"), "{}", again.verdict);
     assert_eq!(calls, expected);
-    // The second search: the plain one again without its calibrated start (taken over from
-    // the first), plus the unbalance trial from the uncalibrated values (its force scanned,
-    // then one sweep with every calibration parameter).
+    // The second search: the plain one again without its calibrated start and its plain
+    // trial (both taken over from the first), plus the unbalance trial from the uncalibrated
+    // values (its force scanned, then one sweep with every calibration parameter).
     let mut t = model_m.clone();
     t.effects.enable(EffectKind::Unbalance);
     let ps = twinscope::compare::diagnose::recalibration_parameters(EffectKind::Unbalance, &t, &opts);
     let unbent_start = twinscope::compare::calibrate::fit_evaluations(&t, &ps, &[Param::UnbalanceKgM], 1, &opts);
     let calibration = twinscope::compare::diagnose::calibration_evaluations(&model_m, &opts);
-    assert_eq!(calls, 2 * plain_calls - calibration + unbent_start, "the unbent search re-did the calibration ({calibration} evaluations) or missed its second start ({unbent_start})");
+    let plain_trial = twinscope::compare::diagnose::plain_trial_evaluations(&model_m, EffectKind::Unbalance, &opts);
+    assert_eq!(
+        calls,
+        2 * plain_calls - calibration - plain_trial + unbent_start,
+        "the unbent search re-did the calibration ({calibration} evaluations) or the plain trial ({plain_trial}), or missed its second start ({unbent_start})"
+    );
 }
 
 /// `LoopOptions::unbend_when_stuck` before the second look (session 31): a hidden load zone
@@ -777,15 +782,17 @@ fn a_stuck_search_is_unbent_before_its_second_look() {
     assert!(d.unbent, "the second look was not unbent: {}", d.verdict);
     assert!(look.verdict_with_one.contains("started again from the uncalibrated values") && look.verdict_with_one.contains(&one.verdict), "the second look did not follow the unbent search: {}", look.verdict_with_one);
     // The count: the plain one-realisation search; the unbent one without the calibrated start
-    // it takes over, plus the slip trial from the uncalibrated values; the search with two
-    // realisations (its own calibrated start) plus the same second start with two.
+    // and the plain slip trial it takes over, plus the slip trial from the uncalibrated values;
+    // the search with two realisations (its own calibrated start and plain trial) plus the
+    // same second start with two.
     let mut t = model_m.clone();
     t.effects.enable(EffectKind::Slip);
     let unbent_start = |o: &LoopOptions| calibrate::fit_evaluations(&t, &diagnose::recalibration_parameters(EffectKind::Slip, &t, o), &[Param::SlipPercent], 1, o);
     let calibration = diagnose::calibration_evaluations(&model_m, &opts);
+    let plain_trial = diagnose::plain_trial_evaluations(&model_m, EffectKind::Slip, &opts);
     assert_eq!(
         calls,
-        one_calls + (one_calls - calibration + unbent_start(&opts)) + two_calls + unbent_start(&two_opts),
+        one_calls + (one_calls - calibration - plain_trial + unbent_start(&opts)) + two_calls + unbent_start(&two_opts),
         "a plain search with two realisations was made, or an unbent start missed"
     );
 }

@@ -682,9 +682,24 @@ pub fn calibration_evaluations(m: &Machine, opts: &LoopOptions) -> usize {
     fit_evaluations(m, &calibration_parameters_for(m, opts), &[], opts.sweeps, opts) + 1 + FLOOR_SEEDS.len() + SCATTER_SEEDS.len()
 }
 
+/// The model evaluations of the plain stage-1 trial of effect `k` on machine `m` (without
+/// it): from the calibrated model, or, for a trial that re-does the calibration with its
+/// effect ([`recalibrates`]), from the uncalibrated values.
+pub fn plain_trial_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -> usize {
+    let mut t = m.clone();
+    t.effects.enable(k);
+    if recalibrates(k) {
+        fit_evaluations(&t, &recalibration_parameters(k, &t, opts), &[], 1, opts)
+    } else {
+        fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &plain_trial_scan(k, opts), opts)
+    }
+}
+
 /// The calibrated start of a diagnosis of one machine, with one number of realisations: the
 /// calibrated machine and its fit, its comparison with the measurement, the seed floor and
-/// the objective's scatter.
+/// the objective's scatter; and, once a search has made them, its plain stage-1 trials (from
+/// the calibrated model; a recalibrating trial's from the uncalibrated values), which an
+/// unbent search of the same machine would make again to the same values.
 struct CalibratedRound {
     realisations: usize,
     machine: Machine,
@@ -692,6 +707,7 @@ struct CalibratedRound {
     comparison: Comparison,
     floor: (f64, Vec<(String, f64)>),
     scatter: f64,
+    plain_trials: Option<Vec<(EffectKind, TrialOutcome)>>,
 }
 
 /// One diagnosis with `opts.realisations` realisations (see [`diagnose_with`]); `unbend`
@@ -704,26 +720,20 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let cal_params = calibration_parameters_for(m, opts);
     let candidates: Vec<EffectKind> = EffectKind::ALL.into_iter().filter(|k| !m.effects.is_on(*k) && Effects::applicable(*k, m) && (opts.candidates.is_empty() || opts.candidates.contains(k))).collect();
     let known = calibrated.iter().position(|c| c.realisations == opts.realisations);
+    let cached_plain: Option<Vec<(EffectKind, TrialOutcome)>> = known.and_then(|i| calibrated[i].plain_trials.clone());
     progress.expect(
         if known.is_some() { 0 } else { calibration_evaluations(m, opts) }
             + candidates
             .iter()
-            .map(|k| {
-                let mut t = m.clone();
-                t.effects.enable(*k);
-                if recalibrates(*k) {
-                    fit_evaluations(&t, &recalibration_parameters(*k, &t, opts), &[], 1, opts)
-                } else {
-                    fit_trial_scanning_evaluations(&t, &Param::of_effect(*k), &TRIAL_REFINE, &plain_trial_scan(*k, opts), opts)
-                }
-            })
+            .filter(|_| cached_plain.is_none())
+            .map(|k| plain_trial_evaluations(m, *k, opts))
             .sum::<usize>()
             + opts.recalibrate_top.min(candidates.len()) * fit_trial_evaluations(m, &[], &cal_params, opts)
             + candidates.len()
             + if opts.realisations >= 2 { 1 + candidates.len() } else { 0 },
     );
-    let start = match known {
-        Some(i) => &calibrated[i],
+    let start_index = match known {
+        Some(i) => i,
         None => {
             let (machine, fit) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
             let (comparison, _) = evaluate(&machine, measured, opts)?;
@@ -736,11 +746,13 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             for _ in SCATTER_SEEDS {
                 progress.tick();
             }
-            calibrated.push(CalibratedRound { realisations: opts.realisations, machine, fit, comparison, floor, scatter });
-            calibrated.last().expect("just pushed")
+            calibrated.push(CalibratedRound { realisations: opts.realisations, machine, fit, comparison, floor, scatter, plain_trials: None });
+            calibrated.len() - 1
         }
     };
-    let (cal_m, cal, c) = (start.machine.clone(), start.fit.clone(), &start.comparison);
+    let start = &calibrated[start_index];
+    let (cal_m, cal, comparison) = (start.machine.clone(), start.fit.clone(), start.comparison.clone());
+    let c = &comparison;
     let ((floor, floor_domains), scatter) = (start.floor.clone(), start.scatter);
     // A calibration that pinned a parameter may have bent it to stand in for the missing
     // effect; with `unbend_pinned` every trial then starts from the uncalibrated values.
@@ -797,7 +809,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     };
     // Stage 1: every candidate, its own parameters fitted and the noise level re-fitted (a
     // transfer-path effect re-does the calibration with it, see [`recalibrates`]).
-    let outcomes: Vec<(EffectKind, TrialOutcome)> = candidates
+    let outcomes: Vec<(EffectKind, TrialOutcome, TrialOutcome)> = candidates
         .par_iter()
         .map(|&k| {
             // From the uncalibrated values, the effect scanned, then one calibration sweep.
@@ -833,23 +845,40 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 let (t, _, scan) = unbent_start(k);
                 plain_fit(t, &scan, &refined_and(&cal_params))
             };
-            let outcome = if recalibrates(k) {
-                from_uncalibrated()
+            // The plain trial: a recalibrating one from the uncalibrated values, any other from
+            // the calibrated model; taken from an earlier search of this machine when it made
+            // it (an unbent search after a plain one, see `diagnose_with`).
+            let plain = || -> TrialOutcome {
+                match cached_plain.as_ref().and_then(|v| v.iter().find(|(e, _)| *e == k)) {
+                    Some((_, o)) => o.clone(),
+                    None if recalibrates(k) => from_uncalibrated(),
+                    None => from_calibrated(),
+                }
+            };
+            let (outcome, plain) = if recalibrates(k) {
+                let o = plain();
+                (o.clone(), o)
             } else if unbent {
                 // Both starts; the better fit is the trial (a start from the uncalibrated values
                 // with one sweep can end worse than the bent calibration's).
-                better_start(rayon::join(from_calibrated, from_uncalibrated))
+                let (a, b) = rayon::join(plain, from_uncalibrated);
+                (better_start((a.clone(), b)), a)
             } else if scanned_start {
-                better_start(rayon::join(from_calibrated, from_uncalibrated_scanned))
+                let (a, b) = rayon::join(plain, from_uncalibrated_scanned);
+                (better_start((a.clone(), b)), a)
             } else {
-                from_calibrated()
+                let o = plain();
+                (o.clone(), o)
             };
-            (k, outcome)
+            (k, outcome, plain)
         })
         .collect();
+    if calibrated[start_index].plain_trials.is_none() && !progress.is_cancelled() {
+        calibrated[start_index].plain_trials = Some(outcomes.iter().map(|(k, _, p)| (*k, p.clone())).collect());
+    }
     let mut stage1: Vec<(EffectTrial, Machine)> = Vec::new();
     let mut failed_trials = Vec::new();
-    for (k, o) in outcomes {
+    for (k, o, _) in outcomes {
         match o {
             Ok(x) => stage1.push(x),
             Err(e) => failed_trials.push((k, e)),
