@@ -240,10 +240,15 @@ struct SearchArgs {
     /// (README "A bent calibration that pins nothing"). Off by default.
     #[arg(long)]
     scan_forces: bool,
-    /// Experimental: a stuck diagnosis whose calibration pins nothing is done again with every
-    /// trial also started from the uncalibrated values, a stuck one-realisation search before
-    /// any second look (README "Unbend when stuck"). Off by default.
+    /// Do not search a stuck diagnosis whose calibration pins nothing again with every trial
+    /// also started from the uncalibrated values (the default does, a stuck one-realisation
+    /// search before any second look: README "Unbend when stuck"). Faster, and misses strong
+    /// forces the calibration absorbs.
     #[arg(long)]
+    no_unbend_when_stuck: bool,
+    /// The default since session 31 (see --no-unbend-when-stuck); accepted so that older
+    /// commands run unchanged.
+    #[arg(long, hide = true, conflicts_with = "no_unbend_when_stuck")]
     unbend_when_stuck: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
@@ -305,7 +310,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: self.unbend_when_stuck, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

@@ -478,10 +478,10 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).scan_force_amplitudes);
-    assert!(!o.unbend_when_stuck);
-    h.get_by_label("unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values (experimental)").click_accesskit();
+    assert!(o.unbend_when_stuck, "on by default");
+    h.get_by_label("unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values").click_accesskit();
     h.run_steps(3);
-    assert!(h.state().settings.loop_options(Default::default()).unbend_when_stuck);
+    assert!(!h.state().settings.loop_options(Default::default()).unbend_when_stuck);
     // The floor margin of the decision: the library's default until changed.
     assert_eq!(o.floor_margin, 0.5);
     set(&mut h, "floor margin", 0.2);

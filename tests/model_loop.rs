@@ -92,8 +92,9 @@ fn quick_case(seed: u64, candidates: Vec<EffectKind>) -> (model::Machine, twinsc
     truth.seed = seed;
     truth.duration_s = 1.0;
     let measured = model::simulate(&truth).unwrap();
-    // One realisation throughout: these quick searches test other things than the second look.
-    let mut opts = LoopOptions { fit_duration_s: 0.8, evaluations_per_parameter: 4, sweeps: 1, candidates, random_effect_realisations: 0, ..Default::default() };
+    // One realisation throughout and no unbent redo: these quick searches test other things
+    // than the second look and unbending when stuck (whose tests switch them on).
+    let mut opts = LoopOptions { fit_duration_s: 0.8, evaluations_per_parameter: 4, sweeps: 1, candidates, random_effect_realisations: 0, unbend_when_stuck: false, ..Default::default() };
     opts.compare.envelope_band_hz = [1800.0, 3000.0];
     (m, measured, opts)
 }

@@ -210,8 +210,8 @@ pub struct LoopSpec {
     #[serde(default)]
     pub scan_force_amplitudes: bool,
     /// A stuck diagnosis whose calibration pins nothing is done again unbent
-    /// (`LoopOptions::unbend_when_stuck`, experimental). Default false.
-    #[serde(default)]
+    /// (`LoopOptions::unbend_when_stuck`). Default true (since session 31).
+    #[serde(default = "LoopSpec::default_unbend_when_stuck")]
     pub unbend_when_stuck: bool,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
@@ -242,6 +242,10 @@ impl LoopSpec {
 
     fn default_refit_when_stuck() -> bool {
         crate::compare::LoopOptions::default().refit_when_stuck
+    }
+
+    fn default_unbend_when_stuck() -> bool {
+        crate::compare::LoopOptions::default().unbend_when_stuck
     }
 
     fn default_rounds() -> usize {
@@ -552,9 +556,9 @@ mod tests {
         assert!(!spec.options(&chain).unwrap().scan_force_amplitudes, "off by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nscan_force_amplitudes = true").unwrap();
         assert!(spec.options(&chain).unwrap().scan_force_amplitudes);
-        assert!(!spec.options(&chain).unwrap().unbend_when_stuck, "off by default");
-        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_stuck = true").unwrap();
-        assert!(spec.options(&chain).unwrap().unbend_when_stuck);
+        assert!(spec.options(&chain).unwrap().unbend_when_stuck, "on by default");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_stuck = false").unwrap();
+        assert!(!spec.options(&chain).unwrap().unbend_when_stuck);
     }
 
     #[test]

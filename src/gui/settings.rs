@@ -63,7 +63,7 @@ pub struct Settings {
     /// (`LoopOptions::scan_force_amplitudes`, experimental).
     pub loop_scan_force_amplitudes: bool,
     /// Model loop: a stuck diagnosis is done again unbent (`LoopOptions::unbend_when_stuck`,
-    /// experimental).
+    /// on by default since session 31).
     pub loop_unbend_when_stuck: bool,
 }
 
