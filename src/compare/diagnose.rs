@@ -873,16 +873,18 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             (k, outcome, plain)
         })
         .collect();
-    if calibrated[start_index].plain_trials.is_none() && !progress.is_cancelled() {
-        calibrated[start_index].plain_trials = Some(outcomes.iter().map(|(k, _, p)| (*k, p.clone())).collect());
-    }
     let mut stage1: Vec<(EffectTrial, Machine)> = Vec::new();
     let mut failed_trials = Vec::new();
-    for (k, o, _) in outcomes {
+    let mut plain_trials = Vec::with_capacity(outcomes.len());
+    for (k, o, p) in outcomes {
+        plain_trials.push((k, p));
         match o {
             Ok(x) => stage1.push(x),
             Err(e) => failed_trials.push((k, e)),
         }
+    }
+    if calibrated[start_index].plain_trials.is_none() && !progress.is_cancelled() {
+        calibrated[start_index].plain_trials = Some(plain_trials);
     }
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
