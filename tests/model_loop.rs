@@ -797,3 +797,48 @@ fn a_stuck_search_is_unbent_before_its_second_look() {
         "a plain search with two realisations was made, or an unbent start missed"
     );
 }
+
+/// The third path of `LoopOptions::unbend_when_stuck` (`diagnose_with`): a one-realisation
+/// search that is *not* stuck (its leading random effect chosen), whose second look with two
+/// realisations is stuck, is searched again unbent — the one-realisation search and then its
+/// second look, both unbent, each taking over its own calibrated start and plain trial. The
+/// hidden-load-zone case with slip the only candidate sits there when the significance is set
+/// between what slip explains with one realisation (14 %) and with two (12 %).
+#[test]
+fn a_stuck_second_look_after_a_search_that_was_not_stuck_is_unbent_both_times() {
+    use twinscope::compare::{calibrate, diagnose};
+    let (model_m, measured, mut opts) = hidden_load_zone_case(EffectKind::Slip);
+    opts.significance = 0.13;
+    let (one, one_calls, _) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("one realisation: {}", one.verdict);
+    assert_eq!(one.best, Some(EffectKind::Slip), "the one-realisation search must choose slip (not stuck): {}", one.verdict);
+    let two_opts = LoopOptions { realisations: 2, ..opts.clone() };
+    let (two, two_calls, _) = diagnose_counting(&model_m, &measured, &two_opts);
+    eprintln!("two realisations: {}", two.verdict);
+    assert_stuck_pinning_nothing(&two);
+    assert!(two.judged_objective() > diagnose::floor_ratio_needed(&two_opts) * two.floor_objective, "the second look must be stuck");
+    opts.random_effect_realisations = 2;
+    opts.unbend_when_stuck = true;
+    let (d, calls, expected) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("unbent after the second look: {}", d.verdict);
+    assert_eq!(calls, expected);
+    assert!(d.unbent, "{}", d.verdict);
+    let look = d.second_look.clone().expect("the unbent search's slip leads: a second look");
+    assert_eq!((look.realisations, look.leader), (2, EffectKind::Slip));
+    // The verdict is the unbent second look's, saying why it was made, and keeps what the
+    // plain second look said (which itself names the plain one-realisation verdict).
+    assert!(d.verdict.contains("a second look with 2 realisations: slip led with one"), "{}", d.verdict);
+    assert!(d.verdict.contains("started again from the uncalibrated values") && d.verdict.contains(&two.verdict) && d.verdict.contains(&one.verdict), "{}", d.verdict);
+    // The count: both plain searches (one and two realisations), then both again unbent, each
+    // without its calibrated start and plain trial (taken over) but with the slip trial from
+    // the uncalibrated values.
+    let mut t = model_m.clone();
+    t.effects.enable(EffectKind::Slip);
+    let unbent_start = |o: &LoopOptions| calibrate::fit_evaluations(&t, &diagnose::recalibration_parameters(EffectKind::Slip, &t, o), &[Param::SlipPercent], 1, o);
+    let taken_over = |o: &LoopOptions| diagnose::calibration_evaluations(&model_m, o) + diagnose::plain_trial_evaluations(&model_m, EffectKind::Slip, o);
+    assert_eq!(
+        calls,
+        one_calls + two_calls + (one_calls - taken_over(&opts) + unbent_start(&opts)) + (two_calls - taken_over(&two_opts) + unbent_start(&two_opts)),
+        "a search was missed or made twice"
+    );
+}
