@@ -120,8 +120,8 @@ enum Command {
         /// calibration parameter, e.g. `noise`).
         #[arg(long = "with", value_name = "EFFECT")]
         with: Vec<String>,
-        /// Rounds of diagnose → apply best → re-compare.
-        #[arg(long, default_value_t = 1)]
+        /// Rounds of diagnose → apply best → re-compare (1 to 20).
+        #[arg(long, default_value_t = 1, value_parser = parse_rounds)]
         rounds: usize,
         /// Write the ranking, residual map and history as JSON.
         #[arg(long)]
@@ -150,7 +150,7 @@ enum Command {
         hide: Vec<String>,
         /// Rounds of the loop for `--hide` cases (default: the number hidden + 2: one round per
         /// effect, one that may replace a wrongly applied effect, one to answer "nothing missing").
-        #[arg(long)]
+        #[arg(long, value_parser = parse_rounds)]
         rounds: Option<usize>,
         /// Control cases with nothing hidden.
         #[arg(long, default_value_t = 2)]
@@ -288,6 +288,14 @@ struct SearchArgs {
     /// "Detection limits"; the default is 4).
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().random_effect_realisations as u16, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_REALISATIONS as i64))]
     random_effect_realisations: u16,
+}
+
+fn parse_rounds(s: &str) -> std::result::Result<usize, String> {
+    let max = twinscope::compare::MAX_LOOP_ROUNDS;
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!("{s}: give 1 to {max} rounds")),
+    }
 }
 
 fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {
@@ -735,9 +743,6 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             Ok(ks)
         })
         .collect::<Result<_>>()?;
-    if rounds == Some(0) {
-        anyhow::bail!("--rounds must be at least 1");
-    }
     if let Some(snr) = setting.snr_db {
         if !(snr.is_finite() && (-20.0..=60.0).contains(&snr)) {
             anyhow::bail!("--snr-db {snr}: give a measurement SNR between -20 and 60 dB");

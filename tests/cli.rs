@@ -119,6 +119,16 @@ fn confusion_refuses_bad_hidden_effect_groups_before_any_work() {
 }
 
 #[test]
+fn diagnose_refuses_a_round_count_outside_1_to_20_before_any_work() {
+    // Zero rounds used to run one silently; 21 or more is refused as a batch job does.
+    let input = cwru("105_de_inner_007_0hp_12k.mat");
+    for n in ["0", "21", "2.5", "two"] {
+        assert_clean_failure(&run(&["diagnose", input.to_str().unwrap(), "--preset", "cwru_6205_inner", "--rounds", n]), &["--rounds", "1 to 20"]);
+    }
+    assert_clean_failure(&run(&["confusion", "--hide", "load_zone+slip", "--rounds", "21", "--controls", "0"]), &["--rounds", "1 to 20"]);
+}
+
+#[test]
 fn confusion_refuses_a_bad_detection_sweep_before_any_work() {
     // A value the model refuses (with the model's own reason), a sweep over two effects or over
     // a switch, an SNR out of range or given with noise hidden: each refused at once.

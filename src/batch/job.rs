@@ -279,8 +279,8 @@ impl LoopSpec {
     /// The loop options; the demodulation band defaults to the chain's first bandpass stage.
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
-        if !(1..=20).contains(&self.rounds) {
-            return Err(format!("`model_loop.rounds` = {}: must be 1 to 20", self.rounds));
+        if !(1..=crate::compare::MAX_LOOP_ROUNDS).contains(&self.rounds) {
+            return Err(format!("`model_loop.rounds` = {}: must be 1 to {}", self.rounds, crate::compare::MAX_LOOP_ROUNDS));
         }
         let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;

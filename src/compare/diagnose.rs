@@ -1460,6 +1460,10 @@ struct Replacement {
     opts: LoopOptions,
 }
 
+/// The most rounds a loop may be asked for ([`run_loop`]; `diagnose --rounds`, `confusion
+/// --rounds`, a batch job's `model_loop.rounds`): each round is a full search, so more is a typo.
+pub const MAX_LOOP_ROUNDS: usize = 20;
+
 /// compare → diagnose → apply the best effect (with its fitted parameter) → repeat, for up to
 /// `rounds` rounds or until nothing significant is missing. Returns the final machine, the
 /// history, and the last diagnosis.
