@@ -693,7 +693,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         println!("\nhistory:");
         for r in &history {
             let pinned = if r.pinned.is_empty() { String::new() } else { format!(" (calibration pinned {})", r.pinned.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")) };
-            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}){pinned}, applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
+            let redo = if r.unbent_when_stuck { " (stuck: searched again unbent)" } else { "" };
+            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}){pinned}{redo}, applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
         }
     }
     if let Some(p) = json {

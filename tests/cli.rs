@@ -266,7 +266,7 @@ dir = "out"
     let nrmse: Vec<f64> = history.iter().map(|r| r["envelope_nrmse"].as_f64().unwrap()).collect();
     assert!(nrmse.len() == 2 && nrmse[1] < nrmse[0], "envelope NRMSE per round {nrmse:?}");
     let csv = std::fs::read_to_string(l["history_csv"].as_str().unwrap()).unwrap();
-    assert!(csv.starts_with("round,effects_on,envelope_nrmse_percent,objective,floor_objective,objective_scatter,applied,applied_values,removed,pinned,verdict"), "{csv}");
+    assert!(csv.starts_with("round,effects_on,envelope_nrmse_percent,objective,floor_objective,objective_scatter,applied,applied_values,removed,pinned,unbent_when_stuck,verdict"), "{csv}");
     assert_eq!(csv.lines().count(), 1 + history.len());
     assert!(csv.lines().nth(1).is_some_and(|l| l.contains("load_zone,\"radial_load_n = ")), "{csv}");
     let final_machine = std::fs::read_to_string(l["final_machine"].as_str().unwrap()).unwrap();

@@ -734,6 +734,10 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
     let (again, calls, expected) = diagnose_counting(&model_m, &measured, &opts);
     eprintln!("unbend when stuck: {}", again.verdict);
     assert!(again.unbent && again.verdict.contains("started again from the uncalibrated values"), "{}", again.verdict);
+    // The JSON says so without parsing the verdict, and keeps the plain search's.
+    assert_eq!((plain.stuck_plain_verdict.as_deref(), again.stuck_plain_verdict.as_deref()), (None, Some(plain.verdict.as_str())));
+    let round = twinscope::compare::Round::of_diagnosis(1, model_m.effects.enabled(), &again, 0.0);
+    assert!(round.unbent_when_stuck && !twinscope::compare::Round::of_diagnosis(1, model_m.effects.enabled(), &plain, 0.0).unbent_when_stuck);
     assert_eq!(calls, expected);
     // The second search: the plain one again without its calibrated start and its plain
     // trial (both taken over from the first), plus the unbalance trial from the uncalibrated
@@ -782,6 +786,7 @@ fn a_stuck_search_is_unbent_before_its_second_look() {
     assert_eq!((look.realisations, look.leader), (2, EffectKind::Slip));
     assert!(d.unbent, "the second look was not unbent: {}", d.verdict);
     assert!(look.verdict_with_one.contains("started again from the uncalibrated values") && look.verdict_with_one.contains(&one.verdict), "the second look did not follow the unbent search: {}", look.verdict_with_one);
+    assert_eq!(d.stuck_plain_verdict.as_deref(), Some(one.verdict.as_str()), "the second look lost the plain search's verdict");
     // The count: the plain one-realisation search; the unbent one without the calibrated start
     // and the plain slip trial it takes over, plus the slip trial from the uncalibrated values;
     // the search with two realisations (its own calibrated start and plain trial) plus the
@@ -829,6 +834,7 @@ fn a_stuck_second_look_after_a_search_that_was_not_stuck_is_unbent_both_times() 
     // plain second look said (which itself names the plain one-realisation verdict).
     assert!(d.verdict.contains("a second look with 2 realisations: slip led with one"), "{}", d.verdict);
     assert!(d.verdict.contains("started again from the uncalibrated values") && d.verdict.contains(&two.verdict) && d.verdict.contains(&one.verdict), "{}", d.verdict);
+    assert!(d.stuck_plain_verdict.as_deref().is_some_and(|v| v.starts_with(&two.verdict) && v.contains(&one.verdict)), "{:?}", d.stuck_plain_verdict);
     // The count: both plain searches (one and two realisations), then both again unbent, each
     // without its calibrated start and plain trial (taken over) but with the slip trial from
     // the uncalibrated values.

@@ -174,10 +174,16 @@ pub struct Diagnosis {
     /// on is invalid, or its simulation failed). They are not ranked.
     #[serde(default)]
     pub failed_trials: Vec<(EffectKind, String)>,
-    /// Whether the stage-1 trials started from the uncalibrated values because the
-    /// calibration pinned a parameter (`LoopOptions::unbend_pinned`).
+    /// Whether the stage-1 trials also started from the uncalibrated values: because the
+    /// calibration pinned a parameter (`LoopOptions::unbend_pinned`), or because the plain
+    /// search was stuck ([`Diagnosis::stuck_plain_verdict`]).
     #[serde(default)]
     pub unbent: bool,
+    /// Set when this diagnosis is the unbent redo of a stuck search
+    /// (`LoopOptions::unbend_when_stuck`; see [`diagnose_with`]): the verdict of the plain
+    /// search it replaced, whose trials started from the calibrated model only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stuck_plain_verdict: Option<String>,
     /// The transfer-path correction fitted to the calibrated model
     /// (`CompareOptions::path_correction_bands`); `None` when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -656,6 +662,7 @@ fn unbend_acts(d: &Diagnosis, opts: &LoopOptions) -> bool {
 /// The unbent diagnosis `d2` with a verdict that says why it was made and what the calibrated
 /// start alone (`d`) said.
 fn unbent_verdict(mut d2: Diagnosis, d: &Diagnosis) -> Diagnosis {
+    d2.stuck_plain_verdict = Some(d.verdict.clone());
     d2.verdict = format!("{} (stuck with the trials from the calibrated model, which pins nothing: every trial started again from the uncalibrated values too; from the calibrated model alone: {})", d2.verdict, d.verdict);
     d2
 }
@@ -672,6 +679,8 @@ fn look_twice(first: (Machine, Diagnosis), m: &Machine, reference: &Reference, o
     let again = LoopOptions { realisations: k, ..opts.clone() };
     let (cal, mut d2) = diagnose_once(m, reference, &again, unbend, calibrated, progress)?;
     d2.verdict = format!("{} (a second look with {k} realisations: {} led with one, where a random effect is fitted to one draw; with one: {})", d2.verdict, leader.name(), d.verdict);
+    // A second look after an unbent redo keeps what the plain search said.
+    d2.stuck_plain_verdict = d.stuck_plain_verdict.clone();
     d2.second_look = Some(SecondLook { realisations: k, leader, verdict_with_one: d.verdict });
     Ok((cal, d2))
 }
@@ -963,7 +972,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
@@ -1138,6 +1147,11 @@ pub struct Round {
     /// when unbending is on ([`Diagnosis::unbent`]).
     #[serde(default)]
     pub pinned: Vec<Param>,
+    /// Whether the round's search was stuck with its trials from the calibrated model and was
+    /// searched again unbent (`LoopOptions::unbend_when_stuck`,
+    /// [`Diagnosis::stuck_plain_verdict`]).
+    #[serde(default)]
+    pub unbent_when_stuck: bool,
 }
 
 impl Round {
@@ -1165,6 +1179,7 @@ impl Round {
             ranking: ranking_of(d),
             ranking_effect_explained: d.trials.iter().map(|t| t.effect_explained.unwrap_or(f64::NAN)).collect(),
             pinned: d.calibration.pinned(),
+            unbent_when_stuck: d.stuck_plain_verdict.is_some(),
             ..Default::default()
         }
     }
