@@ -291,11 +291,9 @@ struct SearchArgs {
 }
 
 fn parse_rounds(s: &str) -> std::result::Result<usize, String> {
-    let max = twinscope::compare::MAX_LOOP_ROUNDS;
-    match s.trim().parse::<usize>() {
-        Ok(n) if (1..=max).contains(&n) => Ok(n),
-        _ => Err(format!("{s}: give 1 to {max} rounds")),
-    }
+    let n: usize = s.trim().parse().map_err(|_| format!("{s}: give 1 to {} rounds", twinscope::compare::MAX_LOOP_ROUNDS))?;
+    twinscope::compare::check_loop_rounds(n).map_err(|e| e.to_string())?;
+    Ok(n)
 }
 
 fn parse_fit_duration_s(s: &str) -> std::result::Result<f64, String> {

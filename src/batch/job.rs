@@ -279,9 +279,7 @@ impl LoopSpec {
     /// The loop options; the demodulation band defaults to the chain's first bandpass stage.
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
-        if !(1..=crate::compare::MAX_LOOP_ROUNDS).contains(&self.rounds) {
-            return Err(format!("`model_loop.rounds` = {}: must be 1 to {}", self.rounds, crate::compare::MAX_LOOP_ROUNDS));
-        }
+        crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
         let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;

@@ -1479,6 +1479,16 @@ struct Replacement {
 /// --rounds`, a batch job's `model_loop.rounds`): each round is a full search, so more is a typo.
 pub const MAX_LOOP_ROUNDS: usize = 20;
 
+/// Refuses a number of loop rounds outside 1 ..= [`MAX_LOOP_ROUNDS`]: [`run_loop`], the CLI
+/// and batch jobs share this check.
+pub fn check_loop_rounds(n: usize) -> Result<(), super::CompareError> {
+    if (1..=MAX_LOOP_ROUNDS).contains(&n) {
+        Ok(())
+    } else {
+        Err(super::CompareError::Parameter { name: "rounds", reason: format!("{n}: give 1 to {MAX_LOOP_ROUNDS} rounds") })
+    }
+}
+
 /// compare → diagnose → apply the best effect (with its fitted parameter) → repeat, for up to
 /// `rounds` rounds or until nothing significant is missing. Returns the final machine, the
 /// history, and the last diagnosis.
@@ -1514,9 +1524,9 @@ pub const MAX_LOOP_ROUNDS: usize = 20;
 /// per candidate model.
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     opts.validate()?;
+    check_loop_rounds(rounds)?;
     let reference = Reference::new(measured, &opts.compare)?;
     let progress = &LoopProgress::new(progress);
-    let rounds = rounds.max(1);
     let mut current = m.clone();
     let mut history: Vec<Round> = Vec::new();
     let mut last = None;
@@ -2159,6 +2169,10 @@ mod tests {
         let opts = LoopOptions { realisations: 0, ..Default::default() };
         let e = run_loop(&m, &measured, 2, &opts, &progress).unwrap_err().to_string();
         assert!(e.contains("realisations"), "{e}");
+        for rounds in [0, MAX_LOOP_ROUNDS + 1] {
+            let e = run_loop(&m, &measured, rounds, &LoopOptions::default(), &progress).unwrap_err().to_string();
+            assert!(e.contains("rounds") && e.contains("give 1 to 20"), "{e}");
+        }
         assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), 0);
     }
 }
