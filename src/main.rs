@@ -231,18 +231,18 @@ struct SearchArgs {
     /// Experimental near-floor rule: between 1.2 × the seed floor and the floor margin's ratio,
     /// the best trial is a finding too when it explains ≥ 80 % of the error above the floor,
     /// switching its effect off costs ≥ 50 %, no trial is tied with it and it places no
-    /// spectral feature (README "A near-floor rule"). Off by default.
+    /// spectral feature (docs/loop-notebook.md "A near-floor rule"). Off by default.
     #[arg(long)]
     near_floor_rule: bool,
     /// Experimental: the plain trial scans a periodic force's amplitude (unbalance,
     /// misalignment, belt force) on a grid before its line search, as the trials from the
     /// uncalibrated values do: its objective has a narrow minimum and other dips decades away
-    /// (README "A bent calibration that pins nothing"). Off by default.
+    /// (docs/loop-notebook.md "A bent calibration that pins nothing"). Off by default.
     #[arg(long)]
     scan_forces: bool,
     /// Do not search a stuck diagnosis whose calibration pins nothing again with every trial
     /// also started from the uncalibrated values (the default does, a stuck one-realisation
-    /// search before any second look: README "Unbend when stuck"). Faster, and misses strong
+    /// search before any second look: docs/loop-notebook.md "Unbend when stuck"). Faster, and misses strong
     /// forces the calibration absorbs.
     #[arg(long)]
     no_unbend_when_stuck: bool,
@@ -250,6 +250,11 @@ struct SearchArgs {
     /// commands run unchanged.
     #[arg(long, hide = true, conflicts_with = "no_unbend_when_stuck")]
     unbend_when_stuck: bool,
+    /// Experimental: with one realisation, confirm a claim on two other model seeds before
+    /// making it (the trial must still explain the significance share of the error above the
+    /// floor there; README "Confirming a claim on fresh seeds"). Off by default.
+    #[arg(long)]
+    confirm_on_fresh_seeds: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
     /// path the model does not describe. Spectral-shape effects (casing modes, sensor
@@ -265,7 +270,7 @@ struct SearchArgs {
     /// The floor margin m of `floor_margin`: something can be missing only when the calibrated
     /// objective is at least (1 + m) × its seed floor with one realisation (√(1 + 2((1 + m)² − 1))
     /// × with several). Lower finds effects nearer the floor and risks claiming a misfit of the
-    /// base model (README "A second start for every trial").
+    /// base model (docs/loop-notebook.md "A second start for every trial").
     #[arg(long, value_name = "M", default_value_t = LoopOptions::default().floor_margin, value_parser = parse_floor_margin)]
     floor_margin: f64,
     /// Model time simulated per evaluation, s (at most the measurement's length). Longer
@@ -278,7 +283,7 @@ struct SearchArgs {
     /// ratio rises to 1.87 to ask for the same systematic misfit, and the calibrated model and
     /// every trial are judged on K held-out realisations no fit used (each evaluation costs K
     /// simulations, run in parallel; not the default: with 2 a random effect's objective
-    /// scatters from draw to draw by half its own gain, so a 2 % slip is not found, README
+    /// scatters from draw to draw by half its own gain, so a 2 % slip is not found, docs/loop-notebook.md
     /// "Detection limits").
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().realisations as u16, value_parser = clap::value_parser!(u16).range(1..=twinscope::compare::MAX_REALISATIONS as i64))]
     realisations: u16,
@@ -316,7 +321,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, confirm_on_fresh_seeds: self.confirm_on_fresh_seeds, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

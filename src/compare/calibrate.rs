@@ -372,7 +372,7 @@ pub struct LoopOptions {
     /// 80 % of the error above the floor, switching its effect off again costs at least 50 %,
     /// no other trial is tied with it, and its effect places no spectral feature (a casing
     /// mode or a sensor roll-off can stand in for a base resonance a few percent off).
-    /// Default: off (experimental; README "A near-floor rule").
+    /// Default: off (experimental; docs/loop-notebook.md "A near-floor rule").
     pub near_floor_rule: bool,
     /// The plain trial (from the calibrated model) scans a periodic force's amplitude on a
     /// grid before its line search ([`Param::periodic_force_amplitude`]), as the trials from
@@ -380,18 +380,28 @@ pub struct LoopOptions {
     /// about a factor 2 wide and other dips decades away (an unbalance beside a misalignment:
     /// 3.4 at its true 2.5e-4 kg·m, 18.8 at 3e-3, 12.9 at 7e-3), and a golden section over
     /// the four decades of its range can close on the wrong one. Three times the
-    /// evaluations for those parameters. Default: off (experimental; README "A bent
+    /// evaluations for those parameters. Default: off (experimental; docs/loop-notebook.md "A bent
     /// calibration that pins nothing").
     pub scan_force_amplitudes: bool,
     /// A diagnosis that is stuck (nothing significant, the objective still above the floor
     /// margin's ratio) with a calibration that pins nothing is done again with every trial
     /// also started from the uncalibrated values, as unbending does when something is pinned
     /// (needs [`LoopOptions::unbend_pinned`]). A calibration can bend the base to do without
-    /// two forces without reaching an edge (README "A bent calibration that pins nothing",
+    /// two forces without reaching an edge (docs/loop-notebook.md "A bent calibration that pins nothing",
     /// "Unbend when stuck"). A stuck one-realisation search is unbent before any second look
     /// for random effects ([`super::diagnose::diagnose_with`]). Costs a second search, in
     /// stuck rounds only. Default: on (since session 31, by the rule of its fresh-seed test).
     pub unbend_when_stuck: bool,
+    /// With one realisation, a claim is confirmed on two other model seeds before it is made
+    /// ([`super::diagnose::confirm_on_fresh_seeds`]): the calibrated model and the chosen
+    /// trial's machine are both re-run under [`super::diagnose::CONFIRM_SEEDS`], and the trial
+    /// must still explain at least `significance` of the error above the floor on their mean.
+    /// Every fit of a one-realisation search is made against one draw of the model's noise,
+    /// slip and roughness; a small effect can be fitted to what that draw happens to put
+    /// where the measurement has error (an optimiser's curse, the one-realisation side of the
+    /// held-out judgement of two or more). Four evaluations per claim. Default: off
+    /// (experimental; README "Confirming a claim on fresh seeds").
+    pub confirm_on_fresh_seeds: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
     pub decision_rule: DecisionRule,
@@ -409,16 +419,16 @@ pub struct LoopOptions {
     /// realisations to the next by about half of what the effect itself gains (a 2 % slip:
     /// ± 0.35 against 0.8; none without it, ± 0.06), so both its fit and its held-out judgement
     /// are near a coin flip; fresh realisations for every line search did not change that, and
-    /// the scatter falls as 1/√K (README "Detection limits").
+    /// the scatter falls as 1/√K (docs/loop-notebook.md "Detection limits").
     pub realisations: usize,
     /// A second look for random effects: when a diagnosis with one realisation ranks first an
     /// effect whose signature is drawn at random (slip, a rough extended fault:
     /// [`crate::model::EffectKind::draws_at_random`]), the diagnosis is done again with this
     /// many realisations, judged held out, and that one is the answer. Against one draw of the
     /// model such an effect is fitted low and judged with the model's own scatter in the error
-    /// (README "Detection limits": one realisation chooses a 1.7 % slip nowhere, four choose it
+    /// (docs/loop-notebook.md "Detection limits": one realisation chooses a 1.7 % slip nowhere, four choose it
     /// from 2 %), while every other ranking keeps the cost of one realisation. 0 or 1: off.
-    /// Default 4 (adopted by the rule written before its runs, README "Detection limits").
+    /// Default 4 (adopted by the rule written before its runs, docs/loop-notebook.md "Detection limits").
     pub random_effect_realisations: usize,
 }
 
@@ -493,7 +503,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, confirm_on_fresh_seeds: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -198,6 +198,29 @@ pub struct Diagnosis {
     /// that led the ranking with one, and that ranking's verdict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub second_look: Option<SecondLook>,
+    /// Set when the decision chose an effect with one realisation and
+    /// [`LoopOptions::confirm_on_fresh_seeds`] re-ran it on other seeds: what it explained
+    /// there, and whether the claim stood ([`Diagnosis::best`] is `None` when it did not).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confirmation: Option<Confirmation>,
+}
+
+/// A one-realisation claim re-run on other model seeds ([`confirm_on_fresh_seeds`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Confirmation {
+    /// The effect the decision chose.
+    pub effect: EffectKind,
+    /// The calibrated model's objective, mean over [`CONFIRM_SEEDS`].
+    pub objective_before: f64,
+    /// The chosen trial's machine's objective, mean over the same seeds.
+    pub objective_after: f64,
+    /// `(objective_before − objective_after) / (objective_before − floor)` (0 when the
+    /// denominator is not positive): the share of the error above the floor it explains there.
+    pub explained: f64,
+    /// The share it explained on the realisation it was fitted to.
+    pub explained_fitted: f64,
+    /// Whether `explained` reached the significance threshold, so the claim stood.
+    pub confirmed: bool,
 }
 
 /// A diagnosis redone with several realisations because a random effect led it with one
@@ -522,7 +545,7 @@ pub const NEAR_FLOOR_EFFECT_EXPLAINED: f64 = 0.5;
 /// and unbalance at 1.49 × were a false claim at a 0.2 margin); and place no spectral feature
 /// ([`Param::places_a_feature`]: near the floor a roll-off took back what a resonance 3 % off
 /// costs, README "Two hidden effects", seed 2904). Every threshold was set from seen rounds;
-/// README "A near-floor rule" gives the fresh-seed test written before its runs.
+/// docs/loop-notebook.md "A near-floor rule" gives the fresh-seed test written before its runs.
 pub fn near_floor_finding(trials: &[EffectTrial], j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> bool {
     let Some(first) = trials.first() else { return false };
     let ratio = floor_ratio_needed(&LoopOptions { floor_margin: NEAR_FLOOR_MARGIN, ..opts.clone() });
@@ -600,7 +623,7 @@ fn above_floor(j: f64, floor: f64, opts: &LoopOptions) -> bool {
 /// ([`DomainComparison::debiased_nrmse_percent`](crate::compare::DomainComparison::debiased_nrmse_percent)):
 /// floor² ≈ V, j² ≈ b² + V, and the same b²/V needs the ratio √(1 + 2((1 + m)² − 1)), 1.87
 /// for the default 0.5. Keeping 1 + m there would ask for a systematic distance 2.3 times
-/// smaller than with one realisation (README "Detection limits").
+/// smaller than with one realisation (docs/loop-notebook.md "Detection limits").
 pub fn floor_ratio_needed(opts: &LoopOptions) -> f64 {
     let r1 = 1.0 + opts.floor_margin;
     if opts.realisations <= 1 {
@@ -630,7 +653,7 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// parameter, and that one is returned. A stuck one-realisation search is unbent *before* any
 /// second look (since session 31): a strong force the calibration absorbed can leave a random
 /// effect leading it, and the second look, which ends the stuck state, then took that random
-/// effect (a 5e-3 kg·m unbalance answered by an extended fault, README "Unbend when stuck").
+/// effect (a 5e-3 kg·m unbalance answered by an extended fault, docs/loop-notebook.md "Unbend when stuck").
 /// The second look then follows the unbent search, unbent too. A second look that is stuck
 /// after a one-realisation search that was not is unbent as before (both searches again).
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
@@ -922,7 +945,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     // [`HELD_OUT_SALT`], and the decision, the shares and the ablation use those numbers.
     // Fitting a random effect against the debiased objective otherwise finds the values
     // where the subtracted scatter of its own realisations happens to be large (an
-    // optimiser's curse: README "Detection limits").
+    // optimiser's curse: docs/loop-notebook.md "Detection limits").
     let held_out = if opts.realisations >= 2 {
         let (ch, _) = evaluate(&reseeded(&cal_m, HELD_OUT_SALT), measured, opts)?;
         progress.tick();
@@ -971,8 +994,29 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     }
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
+    let (best, verdict, confirmation) = match trials.iter().find(|t| Some(t.effect) == best) {
+        Some(t) if opts.confirm_on_fresh_seeds && opts.realisations == 1 => {
+            let conf = confirm_on_fresh_seeds(&cal_m, t, measured, floor, opts, progress)?;
+            let verdict = if conf.confirmed {
+                format!("{verdict} (confirmed on {} other realisations: it explains {:.0} % there)", CONFIRM_SEEDS.len(), conf.explained * 100.0)
+            } else {
+                format!(
+                    "nothing significant is missing (best trial: {} explains {:.0} % of the error above the floor on the realisation it was fitted to, but {:.0} % on {} others, objective {:.2} → {:.2}: the fit learnt its realisation, below the {:.0} % threshold)",
+                    t.effect.name(),
+                    conf.explained_fitted * 100.0,
+                    conf.explained * 100.0,
+                    CONFIRM_SEEDS.len(),
+                    conf.objective_before,
+                    conf.objective_after,
+                    opts.significance * 100.0
+                )
+            };
+            (best.filter(|_| conf.confirmed), verdict, Some(conf))
+        }
+        _ => (best, verdict, None),
+    };
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, confirmation }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
@@ -1001,6 +1045,39 @@ fn better_start((a, b): (TrialOutcome, TrialOutcome)) -> TrialOutcome {
         (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
         (Err(e), Err(_)) => Err(e),
     }
+}
+
+/// Seeds on which [`confirm_on_fresh_seeds`] re-runs a one-realisation claim: the
+/// scatter's ([`objective_scatter`]), which no fit uses.
+pub const CONFIRM_SEEDS: [u64; 2] = SCATTER_SEEDS;
+
+/// Re-runs the chosen trial `t` of a one-realisation search on [`CONFIRM_SEEDS`]
+/// ([`LoopOptions::confirm_on_fresh_seeds`]): the calibrated machine `cal_m` and `cal_m` with
+/// the trial applied ([`apply_trial`], the machine the loop would go on with) are both
+/// evaluated under each seed, and the trial's share of the error above `floor` is taken on
+/// their mean objectives. The claim is confirmed when that share is at least
+/// `opts.significance`, the threshold the fitted share passed. Four evaluations, in parallel.
+pub fn confirm_on_fresh_seeds(cal_m: &Machine, t: &EffectTrial, reference: &Reference, floor: f64, opts: &LoopOptions, progress: &LoopProgress) -> Result<Confirmation, LoopError> {
+    let mut fitted = cal_m.clone();
+    apply_trial(&mut fitted, t);
+    progress.expect(2 * CONFIRM_SEEDS.len());
+    let runs: Vec<Result<f64, LoopError>> = CONFIRM_SEEDS
+        .iter()
+        .flat_map(|&s| [reseeded(cal_m, s), reseeded(&fitted, s)])
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|m| {
+            let j = objective(&evaluate(m, reference, opts)?.0, &opts.weights);
+            progress.tick();
+            Ok(j)
+        })
+        .collect();
+    let js = runs.into_iter().collect::<Result<Vec<f64>, LoopError>>()?;
+    let n = CONFIRM_SEEDS.len() as f64;
+    let before = js.iter().step_by(2).sum::<f64>() / n;
+    let after = js.iter().skip(1).step_by(2).sum::<f64>() / n;
+    let (_, explained) = shares(before, after, floor);
+    Ok(Confirmation { effect: t.effect, objective_before: before, objective_after: after, explained, explained_fitted: t.explained, confirmed: explained >= opts.significance })
 }
 
 /// Seed salt of the held-out realisations on which, with two or more realisations, the
@@ -1462,7 +1539,7 @@ pub fn refit_from_uncalibrated(cal: &Machine, start: &Machine, a: EffectKind, re
 /// those of the loop without [`LoopOptions::unbend_when_stuck`]. The round's own diagnosis
 /// has already been searched unbent when the option is on; searching every candidate model
 /// unbent as well cost the seen pair 3805 an unbent search per candidate (104 min for one
-/// case, README "Unbend when stuck").
+/// case, docs/loop-notebook.md "Unbend when stuck").
 fn searched_plainly(opts: &LoopOptions) -> LoopOptions {
     LoopOptions { unbend_when_stuck: false, ..opts.clone() }
 }

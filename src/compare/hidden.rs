@@ -513,7 +513,7 @@ mod tests {
 
     #[test]
     fn a_hidden_sensor_roll_off_is_drawn_below_the_resonance() {
-        // Above the resonance it acts only where the measurement noise is (README "Detection
+        // Above the resonance it acts only where the measurement noise is (docs/loop-notebook.md "Detection
         // limits"): the draw is 0.45-0.75 x the (perturbed) resonance of the true machine.
         for preset in ["mfs_inner", "mfs_healthy", "cwru_6205_inner"] {
             let base = crate::model::preset(preset).unwrap();
