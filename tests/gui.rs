@@ -671,3 +671,35 @@ fn model_loop_says_when_trials_were_judged_on_held_out_realisations() {
     h.run_steps(3);
     assert!(h.query_by_label_contains("Judged on held-out realisations: the calibrated model scores 8.75 there (8.00 on the realisations it was fitted to)").is_some(), "the held-out judgement is shown");
 }
+
+/// A search of a model with nothing random in it has a zero floor: the view says what that
+/// means and offers to switch the noise on, which changes the model (its level is then
+/// calibrated by the next search). A model with noise on is not offered it.
+#[test]
+fn model_loop_offers_to_switch_on_noise_when_the_floor_is_zero() {
+    use twinscope::compare::{Diagnosis, Fit, LoopOptions};
+    use twinscope::gui::session::LoopResult;
+    use twinscope::model::EffectKind;
+    let mut h = model_loop_on_105(vec![EffectKind::LoadZone]);
+    let m = h.state().session.model.machine.clone();
+    assert!(!m.effects.is_on(EffectKind::Noise), "the preset has no noise");
+    let name = h.state().session.signals[0].signal.name.clone();
+    let result = |m: &twinscope::model::Machine| {
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 0.0, verdict: "nothing significant is missing".into(), ..Default::default() };
+        LoopResult { measured: name.clone(), options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None }
+    };
+    h.state_mut().session.model.result = Some(result(&m));
+    h.run_steps(3);
+    assert!(!labels_containing(&h, "Note: the model has nothing random in it").is_empty(), "zero-floor note shown");
+    h.get_by_label("Switch on noise").click();
+    h.run_steps(3);
+    let machine = h.state().session.model.machine.clone();
+    assert!(machine.effects.is_on(EffectKind::Noise), "noise switched on: {:?}", machine.effects.enabled());
+    let mut expected = m.clone();
+    expected.effects.enable(EffectKind::Noise);
+    assert_eq!(machine, expected, "nothing else changed");
+    // With noise on, a zero floor (not reachable by a search, set here) offers no button.
+    h.state_mut().session.model.result = Some(result(&machine));
+    h.run_steps(3);
+    assert!(h.query_by_label("Switch on noise").is_none());
+}

@@ -246,6 +246,14 @@ impl ModelLoopView {
         ));
         if d.floor_objective == 0.0 {
             ui.add(egui::Label::new(RichText::new(format!("Note: {}", drawable(crate::compare::diagnose::ZERO_FLOOR_NOTE))).color(ui.visuals().warn_fg_color)).wrap());
+            let machine = &session.model.machine;
+            if !machine.effects.is_on(EffectKind::Noise)
+                && ui.button("Switch on noise").on_hover_text("switch the model's measurement noise on (its level is calibrated), so the search has a floor; then Find missing effect again").clicked()
+            {
+                let mut m = machine.clone();
+                m.effects.enable(EffectKind::Noise);
+                *cmd = Some(Command::SetMachine(Box::new(m)));
+            }
         }
         if let Some(look) = &d.second_look {
             ui.add(egui::Label::new(RichText::new(format!("Second look with {} realisations: {} led the search with one, where a random effect is fitted to one draw; that search said: {}", look.realisations, look.leader.name(), drawable(&look.verdict_with_one))).color(ui.visuals().warn_fg_color)).wrap());
