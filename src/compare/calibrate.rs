@@ -392,6 +392,16 @@ pub struct LoopOptions {
     /// for random effects ([`super::diagnose::diagnose_with`]). Costs a second search, in
     /// stuck rounds only. Default: on (since session 31, by the rule of its fresh-seed test).
     pub unbend_when_stuck: bool,
+    /// A periodic force's amplitude ([`Param::periodic_force_amplitude`]) is fitted with twice
+    /// the evaluations in the golden section of its full-range line search: with 9 over the
+    /// four decades of its range the section ends within about ±18 % of the minimum, and the
+    /// objective's minimum in such a force is about 1 % wide (on the hidden pair belt drive +
+    /// misalignment, seed 4502, the true machine scores 2.40 and 2.76 / 3.95 with its
+    /// misalignment 1 % / 3 % low). A force left a few percent off in a later round's
+    /// calibration leaves error that another effect can stand in for. With 18 the section
+    /// ends within about 0.5 %. Default: off (experimental; docs/loop-notebook.md "Fine
+    /// forces").
+    pub fine_forces: bool,
     /// With one realisation, a claim is confirmed on two other model seeds before it is made
     /// ([`super::diagnose::confirm_on_fresh_seeds`]): the calibrated model and the chosen
     /// trial's machine are both re-run under [`super::diagnose::CONFIRM_SEEDS`], and the trial
@@ -503,7 +513,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, confirm_on_fresh_seeds: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, fine_forces: false, confirm_on_fresh_seeds: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 
@@ -614,7 +624,19 @@ impl<'a> LoopProgress<'a> {
 /// `scan` are scanned on a grid (see [`fit_scanning`]; [`fit`] scans none).
 pub fn fit_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
     let n = opts.evaluations_per_parameter.max(3);
-    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() || scan.contains(p) { 3 * n } else { n }).sum::<usize>()
+    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() || scan.contains(p) { 2 * n } else { 0 } + golden_evaluations(*p, opts)).sum::<usize>()
+}
+
+/// Evaluations of the golden section of a full-range line search of `p` (after its grid, if
+/// it is scanned): `evaluations_per_parameter`, twice that for a periodic force's amplitude
+/// with [`LoopOptions::fine_forces`].
+fn golden_evaluations(p: Param, opts: &LoopOptions) -> usize {
+    let n = opts.evaluations_per_parameter.max(3);
+    if opts.fine_forces && p.periodic_force_amplitude() {
+        2 * n
+    } else {
+        n
+    }
 }
 
 /// Result of fitting.
@@ -818,6 +840,9 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                     None => f64::INFINITY,
                 }
             };
+            if !local {
+                n = golden_evaluations(p, opts);
+            }
             let (u, j) = golden(eval_at, a, b, n, u0, j0);
             if progress.is_cancelled() {
                 return Err(LoopError::Cancelled);
