@@ -256,11 +256,6 @@ struct SearchArgs {
     /// forces"). Off by default.
     #[arg(long)]
     fine_forces: bool,
-    /// Experimental: with one realisation, confirm a claim on two other model seeds before
-    /// making it (the trial must still explain the significance share of the error above the
-    /// floor there; README "Confirming a claim on fresh seeds"). Off by default.
-    #[arg(long)]
-    confirm_on_fresh_seeds: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
     /// path the model does not describe. Spectral-shape effects (casing modes, sensor
@@ -327,7 +322,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: self.fine_forces, confirm_on_fresh_seeds: self.confirm_on_fresh_seeds, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: self.fine_forces, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o
     }

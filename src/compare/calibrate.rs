@@ -402,16 +402,6 @@ pub struct LoopOptions {
     /// ends within about 0.5 %. Default: off (experimental; docs/loop-notebook.md "Fine
     /// forces").
     pub fine_forces: bool,
-    /// With one realisation, a claim is confirmed on two other model seeds before it is made
-    /// ([`super::diagnose::confirm_on_fresh_seeds`]): the calibrated model and the chosen
-    /// trial's machine are both re-run under [`super::diagnose::CONFIRM_SEEDS`], and the trial
-    /// must still explain at least `significance` of the error above the floor on their mean.
-    /// Every fit of a one-realisation search is made against one draw of the model's noise,
-    /// slip and roughness; a small effect can be fitted to what that draw happens to put
-    /// where the measurement has error (an optimiser's curse, the one-realisation side of the
-    /// held-out judgement of two or more). Four evaluations per claim. Default: off
-    /// (experimental; README "Confirming a claim on fresh seeds").
-    pub confirm_on_fresh_seeds: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
     pub decision_rule: DecisionRule,
@@ -513,7 +503,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, fine_forces: false, confirm_on_fresh_seeds: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, fine_forces: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

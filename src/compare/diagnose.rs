@@ -198,29 +198,6 @@ pub struct Diagnosis {
     /// that led the ranking with one, and that ranking's verdict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub second_look: Option<SecondLook>,
-    /// Set when the decision chose an effect with one realisation and
-    /// [`LoopOptions::confirm_on_fresh_seeds`] re-ran it on other seeds: what it explained
-    /// there, and whether the claim stood ([`Diagnosis::best`] is `None` when it did not).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub confirmation: Option<Confirmation>,
-}
-
-/// A one-realisation claim re-run on other model seeds ([`confirm_on_fresh_seeds`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Confirmation {
-    /// The effect the decision chose.
-    pub effect: EffectKind,
-    /// The calibrated model's objective, mean over [`CONFIRM_SEEDS`].
-    pub objective_before: f64,
-    /// The chosen trial's machine's objective, mean over the same seeds.
-    pub objective_after: f64,
-    /// `(objective_before − objective_after) / (objective_before − floor)` (0 when the
-    /// denominator is not positive): the share of the error above the floor it explains there.
-    pub explained: f64,
-    /// The share it explained on the realisation it was fitted to.
-    pub explained_fitted: f64,
-    /// Whether `explained` reached the significance threshold, so the claim stood.
-    pub confirmed: bool,
 }
 
 /// A diagnosis redone with several realisations because a random effect led it with one
@@ -994,29 +971,8 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     }
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
-    let (best, verdict, confirmation) = match trials.iter().find(|t| Some(t.effect) == best) {
-        Some(t) if opts.confirm_on_fresh_seeds && opts.realisations == 1 => {
-            let conf = confirm_on_fresh_seeds(&cal_m, t, measured, floor, opts, progress)?;
-            let verdict = if conf.confirmed {
-                format!("{verdict} (confirmed on {} other realisations: it explains {:.0} % there)", CONFIRM_SEEDS.len(), conf.explained * 100.0)
-            } else {
-                format!(
-                    "nothing significant is missing (best trial: {} explains {:.0} % of the error above the floor on the realisation it was fitted to, but {:.0} % on {} others, objective {:.2} → {:.2}: the fit learnt its realisation, below the {:.0} % threshold)",
-                    t.effect.name(),
-                    conf.explained_fitted * 100.0,
-                    conf.explained * 100.0,
-                    CONFIRM_SEEDS.len(),
-                    conf.objective_before,
-                    conf.objective_after,
-                    opts.significance * 100.0
-                )
-            };
-            (best.filter(|_| conf.confirmed), verdict, Some(conf))
-        }
-        _ => (best, verdict, None),
-    };
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, confirmation }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
@@ -1045,39 +1001,6 @@ fn better_start((a, b): (TrialOutcome, TrialOutcome)) -> TrialOutcome {
         (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
         (Err(e), Err(_)) => Err(e),
     }
-}
-
-/// Seeds on which [`confirm_on_fresh_seeds`] re-runs a one-realisation claim: the
-/// scatter's ([`objective_scatter`]), which no fit uses.
-pub const CONFIRM_SEEDS: [u64; 2] = SCATTER_SEEDS;
-
-/// Re-runs the chosen trial `t` of a one-realisation search on [`CONFIRM_SEEDS`]
-/// ([`LoopOptions::confirm_on_fresh_seeds`]): the calibrated machine `cal_m` and `cal_m` with
-/// the trial applied ([`apply_trial`], the machine the loop would go on with) are both
-/// evaluated under each seed, and the trial's share of the error above `floor` is taken on
-/// their mean objectives. The claim is confirmed when that share is at least
-/// `opts.significance`, the threshold the fitted share passed. Four evaluations, in parallel.
-pub fn confirm_on_fresh_seeds(cal_m: &Machine, t: &EffectTrial, reference: &Reference, floor: f64, opts: &LoopOptions, progress: &LoopProgress) -> Result<Confirmation, LoopError> {
-    let mut fitted = cal_m.clone();
-    apply_trial(&mut fitted, t);
-    progress.expect(2 * CONFIRM_SEEDS.len());
-    let runs: Vec<Result<f64, LoopError>> = CONFIRM_SEEDS
-        .iter()
-        .flat_map(|&s| [reseeded(cal_m, s), reseeded(&fitted, s)])
-        .collect::<Vec<_>>()
-        .par_iter()
-        .map(|m| {
-            let j = objective(&evaluate(m, reference, opts)?.0, &opts.weights);
-            progress.tick();
-            Ok(j)
-        })
-        .collect();
-    let js = runs.into_iter().collect::<Result<Vec<f64>, LoopError>>()?;
-    let n = CONFIRM_SEEDS.len() as f64;
-    let before = js.iter().step_by(2).sum::<f64>() / n;
-    let after = js.iter().skip(1).step_by(2).sum::<f64>() / n;
-    let (_, explained) = shares(before, after, floor);
-    Ok(Confirmation { effect: t.effect, objective_before: before, objective_after: after, explained, explained_fitted: t.explained, confirmed: explained >= opts.significance })
 }
 
 /// Seed salt of the held-out realisations on which, with two or more realisations, the
