@@ -478,6 +478,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).scan_force_amplitudes);
+    // The experimental fine force fit: off until ticked.
+    assert!(!o.fine_forces);
+    h.get_by_label("fine forces: an unbalance, misalignment or belt force gets twice the line-search evaluations (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).fine_forces);
     assert!(o.unbend_when_stuck, "on by default");
     h.get_by_label("unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values").click_accesskit();
     h.run_steps(3);

@@ -561,6 +561,9 @@ mod tests {
         assert!(spec.options(&chain).unwrap().unbend_when_stuck, "on by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_stuck = false").unwrap();
         assert!(!spec.options(&chain).unwrap().unbend_when_stuck);
+        assert!(!spec.options(&chain).unwrap().fine_forces, "off by default");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = true").unwrap();
+        assert!(spec.options(&chain).unwrap().fine_forces);
     }
 
     #[test]

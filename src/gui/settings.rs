@@ -65,6 +65,9 @@ pub struct Settings {
     /// Model loop: a stuck diagnosis is done again unbent (`LoopOptions::unbend_when_stuck`,
     /// on by default since session 31).
     pub loop_unbend_when_stuck: bool,
+    /// Model loop: a periodic force's amplitude is fitted with twice the line-search
+    /// evaluations (`LoopOptions::fine_forces`, experimental).
+    pub loop_fine_forces: bool,
 }
 
 impl Default for Settings {
@@ -93,6 +96,7 @@ impl Default for Settings {
             loop_near_floor_rule: LoopOptions::default().near_floor_rule,
             loop_scan_force_amplitudes: LoopOptions::default().scan_force_amplitudes,
             loop_unbend_when_stuck: LoopOptions::default().unbend_when_stuck,
+            loop_fine_forces: LoopOptions::default().fine_forces,
         }
     }
 }
@@ -155,6 +159,7 @@ impl Settings {
             near_floor_rule: self.loop_near_floor_rule,
             scan_force_amplitudes: self.loop_scan_force_amplitudes,
             unbend_when_stuck: self.loop_unbend_when_stuck,
+            fine_forces: self.loop_fine_forces,
             ..Default::default()
         }
     }
