@@ -613,7 +613,7 @@ impl<'a> LoopProgress<'a> {
 /// Model evaluations [`fit`] makes for `params` over `sweeps` sweeps, when the parameters in
 /// `scan` are scanned on a grid (see [`fit_scanning`]; [`fit`] scans none).
 pub fn fit_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
-    let n = opts.evaluations_per_parameter.max(3);
+    let n = line_evaluations(opts);
     1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() || scan.contains(p) { 2 * n } else { 0 } + golden_evaluations(*p, opts)).sum::<usize>()
 }
 
@@ -621,12 +621,18 @@ pub fn fit_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: us
 /// it is scanned): `evaluations_per_parameter`, twice that for a periodic force's amplitude
 /// with [`LoopOptions::fine_forces`].
 fn golden_evaluations(p: Param, opts: &LoopOptions) -> usize {
-    let n = opts.evaluations_per_parameter.max(3);
+    let n = line_evaluations(opts);
     if opts.fine_forces && p.periodic_force_amplitude() {
         2 * n
     } else {
         n
     }
+}
+
+/// `evaluations_per_parameter`, at least 3: the evaluations of a line search, and half the
+/// points of a scan's grid.
+fn line_evaluations(opts: &LoopOptions) -> usize {
+    opts.evaluations_per_parameter.max(3)
 }
 
 /// Result of fitting.
@@ -793,13 +799,13 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                 progress.tick();
                 evaluate(&t, reference, opts).ok().map(|(c, g)| (objective(&c, &opts.weights), c, g))
             };
-            let mut n = opts.evaluations_per_parameter.max(3);
+            let n = line_evaluations(opts);
+            let golden_n = if local { refine_evaluations(opts) } else { golden_evaluations(p, opts) };
             let (mut a, mut b) = (from(lo), from(hi));
             let (mut u0, mut j0) = (from(x0), best_j);
             if local {
                 let h = 0.25 * (b - a);
                 (a, b) = ((u0 - h).max(a), (u0 + h).min(b));
-                n = refine_evaluations(opts);
             } else if p.multimodal() || scan.contains(&p) {
                 // A mode frequency has one local minimum per spectral feature it can sit on:
                 // scan a grid first (its points are independent: evaluated in parallel), then
@@ -830,10 +836,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                     None => f64::INFINITY,
                 }
             };
-            if !local {
-                n = golden_evaluations(p, opts);
-            }
-            let (u, j) = golden(eval_at, a, b, n, u0, j0);
+            let (u, j) = golden(eval_at, a, b, golden_n, u0, j0);
             if progress.is_cancelled() {
                 return Err(LoopError::Cancelled);
             }
