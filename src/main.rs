@@ -129,6 +129,11 @@ enum Command {
         /// Write the final machine (with the applied effects) as TOML.
         #[arg(long)]
         save_machine: Option<PathBuf>,
+        /// RK4 sub-steps per output sample (1–256), instead of the machine's own `substeps`:
+        /// fewer are faster and coarser (the CWRU presets use 4, the MFS and UNSW ones 8; see
+        /// assets/machines/README.md).
+        #[arg(long, value_name = "N")]
+        substeps: Option<usize>,
         #[command(flatten)]
         search: SearchArgs,
     },
@@ -173,6 +178,11 @@ enum Command {
         /// cases, or, with `--hide`, `{"single": [...], "multi": [...]}`.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// RK4 sub-steps per output sample (1–256), instead of the machine's own `substeps`:
+        /// fewer are faster and coarser (the CWRU presets use 4, the MFS and UNSW ones 8; see
+        /// assets/machines/README.md).
+        #[arg(long, value_name = "N")]
+        substeps: Option<usize>,
         #[command(flatten)]
         search: SearchArgs,
     },
@@ -199,6 +209,11 @@ enum Command {
         /// Switch effects off.
         #[arg(long = "without", value_name = "EFFECT")]
         without: Vec<String>,
+        /// RK4 sub-steps per output sample (1–256), instead of the machine's own `substeps`:
+        /// fewer are faster and coarser (the CWRU presets use 4, the MFS and UNSW ones 8; see
+        /// assets/machines/README.md).
+        #[arg(long, value_name = "N")]
+        substeps: Option<usize>,
     },
     /// Time the heavy operations on 10 s of 16384 Hz data (and scipy's, when python3 with
     /// scipy is available) and print a Markdown table.
@@ -361,12 +376,12 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, path_correction as usize, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, json, save_machine, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
-        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, search }) => {
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, json, save_machine, substeps, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, substeps, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, substeps, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
-            confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, json.as_deref(), search.options())
+            confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, substeps, json.as_deref(), search.options())
         }
-        Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, cli.quiet),
+        Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without, substeps }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, substeps, cli.quiet),
         None => open_workbench(cli.view, cli.open, !cli.no_demo, cli.find_missing_effect, cli.export_png),
     }
 }
@@ -500,7 +515,7 @@ fn kinematics(bearing: Option<String>, shaft_hz: Option<f64>) -> Result<()> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, duration_s: Option<f64>, seed: Option<u64>, with: &[String], without: &[String], quiet: bool) -> Result<()> {
+fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, duration_s: Option<f64>, seed: Option<u64>, with: &[String], without: &[String], substeps: Option<usize>, quiet: bool) -> Result<()> {
     use twinscope::model::{self, EffectKind, Machine};
     let mut m = match (&machine, &preset) {
         (Some(p), _) => {
@@ -515,6 +530,9 @@ fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, dur
     }
     if let Some(s) = seed {
         m.seed = s;
+    }
+    if let Some(n) = substeps {
+        m.substeps = n;
     }
     for n in with {
         m.effects.enable(EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
@@ -601,7 +619,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
 }
 
 #[allow(clippy::too_many_arguments)]
-fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], rounds: usize, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
+fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], rounds: usize, substeps: Option<usize>, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare;
     use twinscope::model::{self, Machine};
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
@@ -612,6 +630,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     };
     for n in with {
         m.effects.enable(twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
+    }
+    if let Some(n) = substeps {
+        m.substeps = n;
     }
     m.validate()?;
     if let Some(b) = band_hz {
@@ -722,11 +743,15 @@ fn oracle_cell(o: &twinscope::compare::hidden::Oracle, model_objective: f64) -> 
 }
 
 #[allow(clippy::too_many_arguments)]
-fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
+fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, substeps: Option<usize>, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;
     use twinscope::model::{self, EffectKind, Effects};
-    let base = model::preset(preset)?;
+    let mut base = model::preset(preset)?;
+    if let Some(n) = substeps {
+        base.substeps = n;
+        base.validate().with_context(|| format!("--substeps {n}"))?;
+    }
     let parse = |n: &str| EffectKind::parse_named(n.trim()).map_err(anyhow::Error::msg);
     let kinds: Vec<EffectKind> = if effects.is_empty() && hide.is_empty() {
         EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, &base)).collect()

@@ -180,6 +180,34 @@ fn compare_refuses_signals_with_different_units() {
     assert_clean_failure(&r, &["units differ"]);
 }
 
+/// `--substeps N` replaces the machine's RK4 sub-steps: the preset's own count gives the
+/// preset's signal to the byte, another count another signal; 0 and 257 are refused by
+/// `simulate`, `diagnose` and `confusion` before any work, naming the field.
+#[test]
+fn substeps_override_the_machine_and_are_checked() {
+    let d = tempfile::tempdir().unwrap();
+    let sim = |name: &str, extra: &[&str]| {
+        let out = d.path().join(name);
+        let mut args = vec!["simulate", "--preset", "cwru_6205_inner", "--duration-s", "0.2", "-q", "-o", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let r = run(&args);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        std::fs::read(out).unwrap()
+    };
+    let own = twinscope::model::preset("cwru_6205_inner").unwrap().substeps.to_string();
+    let default = sim("default.csv", &[]);
+    assert_eq!(default, sim("own.csv", &["--substeps", &own]));
+    assert_ne!(default, sim("coarse.csv", &["--substeps", "1"]));
+    let out = d.path().join("x.csv");
+    let measured = cwru("105_de_inner_007_0hp_12k.mat");
+    for bad in ["0", "257"] {
+        assert_clean_failure(&run(&["simulate", "--preset", "cwru_6205_inner", "-o", out.to_str().unwrap(), "--substeps", bad]), &["substeps"]);
+        assert_clean_failure(&run(&["diagnose", measured.to_str().unwrap(), "--preset", "cwru_6205_inner", "--substeps", bad]), &["substeps"]);
+        assert_clean_failure(&run(&["confusion", "--controls", "1", "--substeps", bad]), &["--substeps", "substeps"]);
+    }
+    assert!(!out.exists());
+}
+
 #[test]
 fn simulate_writes_a_signal_that_info_reads_back() {
     let d = tempfile::tempdir().unwrap();
