@@ -129,11 +129,8 @@ enum Command {
         /// Write the final machine (with the applied effects) as TOML.
         #[arg(long)]
         save_machine: Option<PathBuf>,
-        /// RK4 sub-steps per output sample (1–256), instead of the machine's own `substeps`:
-        /// fewer are faster and coarser (the CWRU presets use 4, the MFS and UNSW ones 8; see
-        /// assets/machines/README.md).
-        #[arg(long, value_name = "N")]
-        substeps: Option<usize>,
+        #[command(flatten)]
+        step: StepArgs,
         #[command(flatten)]
         search: SearchArgs,
     },
@@ -178,11 +175,8 @@ enum Command {
         /// cases, or, with `--hide`, `{"single": [...], "multi": [...]}`.
         #[arg(long)]
         json: Option<PathBuf>,
-        /// RK4 sub-steps per output sample (1–256), instead of the machine's own `substeps`:
-        /// fewer are faster and coarser (the CWRU presets use 4, the MFS and UNSW ones 8; see
-        /// assets/machines/README.md).
-        #[arg(long, value_name = "N")]
-        substeps: Option<usize>,
+        #[command(flatten)]
+        step: StepArgs,
         #[command(flatten)]
         search: SearchArgs,
     },
@@ -209,15 +203,22 @@ enum Command {
         /// Switch effects off.
         #[arg(long = "without", value_name = "EFFECT")]
         without: Vec<String>,
-        /// RK4 sub-steps per output sample (1–256), instead of the machine's own `substeps`:
-        /// fewer are faster and coarser (the CWRU presets use 4, the MFS and UNSW ones 8; see
-        /// assets/machines/README.md).
-        #[arg(long, value_name = "N")]
-        substeps: Option<usize>,
+        #[command(flatten)]
+        step: StepArgs,
     },
     /// Time the heavy operations on 10 s of 16384 Hz data (and scipy's, when python3 with
     /// scipy is available) and print a Markdown table.
     Bench(bench::BenchArgs),
+}
+
+/// The model's integration step, shared by `simulate`, `diagnose` and `confusion`.
+#[derive(clap::Args, Debug, Clone)]
+struct StepArgs {
+    /// RK4 sub-steps per output sample (1–256), instead of the machine's own `substeps`:
+    /// fewer are faster and coarser (the CWRU presets use 4, the MFS and UNSW ones 8; see
+    /// assets/machines/README.md).
+    #[arg(long, value_name = "N")]
+    substeps: Option<usize>,
 }
 
 /// Options of the missing-effect search shared by `diagnose` and `confusion`.
@@ -376,12 +377,12 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, path_correction as usize, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, json, save_machine, substeps, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, substeps, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
-        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, substeps, search }) => {
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, step.substeps, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, step, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
-            confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, substeps, json.as_deref(), search.options())
+            confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, step.substeps, json.as_deref(), search.options())
         }
-        Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without, substeps }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, substeps, cli.quiet),
+        Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without, step }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, step.substeps, cli.quiet),
         None => open_workbench(cli.view, cli.open, !cli.no_demo, cli.find_missing_effect, cli.export_png),
     }
 }

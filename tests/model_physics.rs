@@ -150,7 +150,8 @@ fn peaks(s: &[f64], floor: f64) -> Vec<(f64, f64)> {
 
 /// 1 (b): the CWRU preset without fault and damping (uniform preload, Hertzian contact): kick
 /// every DOF from the static equilibrium with a small velocity, integrate the free vibration
-/// (2^15 samples at 12 kHz, the preset's 4 sub-steps) and take the Hann spectrum of each DOF's displacement.
+/// (2^15 samples at 12 kHz, the preset's 4 sub-steps) and take the Hann spectrum of each DOF's
+/// displacement.
 /// Every computed natural frequency has a spectral peak within max(one bin, 1 %), and every
 /// peak above 1 % of the largest lies at a computed frequency (no spurious mode).
 #[test]
