@@ -221,6 +221,15 @@ struct StepArgs {
     substeps: Option<usize>,
 }
 
+impl StepArgs {
+    /// Sets the machine's sub-steps when `--substeps` was given (checked by `Machine::validate`).
+    fn apply(&self, m: &mut twinscope::model::Machine) {
+        if let Some(n) = self.substeps {
+            m.substeps = n;
+        }
+    }
+}
+
 /// Options of the missing-effect search shared by `diagnose` and `confusion`.
 #[derive(clap::Args, Debug)]
 struct SearchArgs {
@@ -377,12 +386,12 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, path_correction as usize, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, step.substeps, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, &step, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, step, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
-            confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, step.substeps, json.as_deref(), search.options())
+            confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, &step, json.as_deref(), search.options())
         }
-        Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without, step }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, step.substeps, cli.quiet),
+        Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without, step }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, &step, cli.quiet),
         None => open_workbench(cli.view, cli.open, !cli.no_demo, cli.find_missing_effect, cli.export_png),
     }
 }
@@ -516,7 +525,7 @@ fn kinematics(bearing: Option<String>, shaft_hz: Option<f64>) -> Result<()> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, duration_s: Option<f64>, seed: Option<u64>, with: &[String], without: &[String], substeps: Option<usize>, quiet: bool) -> Result<()> {
+fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, duration_s: Option<f64>, seed: Option<u64>, with: &[String], without: &[String], step: &StepArgs, quiet: bool) -> Result<()> {
     use twinscope::model::{self, EffectKind, Machine};
     let mut m = match (&machine, &preset) {
         (Some(p), _) => {
@@ -532,9 +541,7 @@ fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, dur
     if let Some(s) = seed {
         m.seed = s;
     }
-    if let Some(n) = substeps {
-        m.substeps = n;
-    }
+    step.apply(&mut m);
     for n in with {
         m.effects.enable(EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
     }
@@ -620,7 +627,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
 }
 
 #[allow(clippy::too_many_arguments)]
-fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], rounds: usize, substeps: Option<usize>, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
+fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], rounds: usize, step: &StepArgs, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare;
     use twinscope::model::{self, Machine};
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
@@ -632,9 +639,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     for n in with {
         m.effects.enable(twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
     }
-    if let Some(n) = substeps {
-        m.substeps = n;
-    }
+    step.apply(&mut m);
     m.validate()?;
     if let Some(b) = band_hz {
         anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz");
@@ -744,13 +749,13 @@ fn oracle_cell(o: &twinscope::compare::hidden::Oracle, model_objective: f64) -> 
 }
 
 #[allow(clippy::too_many_arguments)]
-fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, substeps: Option<usize>, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
+fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;
     use twinscope::model::{self, EffectKind, Effects};
     let mut base = model::preset(preset)?;
-    if let Some(n) = substeps {
-        base.substeps = n;
+    if let Some(n) = step.substeps {
+        step.apply(&mut base);
         base.validate().with_context(|| format!("--substeps {n}"))?;
     }
     let parse = |n: &str| EffectKind::parse_named(n.trim()).map_err(anyhow::Error::msg);
