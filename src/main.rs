@@ -855,6 +855,10 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             "recoverable (the true machine, re-seeded, beats the calibrated model, and without its hidden effect it does not): {}; of those found: {found}, with envelope NRMSE at least halved: {halved}, not halved where the true machine itself stays above half: {truth_cannot}",
             recoverable.len()
         );
+        let missed: Vec<String> = recoverable.iter().filter_map(|r| Some(format!("{}: {}", r.hidden?.name(), r.miss()?.text()))).collect();
+        if !missed.is_empty() {
+            println!("recoverable and not chosen: {}", missed.join("; "));
+        }
     }
     if groups.is_empty() {
         return Ok(());

@@ -195,6 +195,45 @@ impl CaseResult {
     pub fn recoverable(&self) -> bool {
         self.oracle.recoverable(self.calibrated_objective())
     }
+
+    /// Why a recoverable hidden effect was not chosen; None when it was, when the case is not
+    /// recoverable, or for a control. The decision's floor ratio comes first: under it the
+    /// search judged nothing missing, whatever the trials showed.
+    pub fn miss(&self) -> Option<Miss> {
+        if self.hidden.is_none() || self.chosen == self.hidden || !self.recoverable() {
+            return None;
+        }
+        let ratio = self.calibrated_objective() / self.floor_objective;
+        let rank = self.rank_of_hidden;
+        Some(if self.floor_ratio_needed > 0.0 && ratio < self.floor_ratio_needed {
+            Miss::UnderMargin { ratio, needed: self.floor_ratio_needed, rank }
+        } else {
+            Miss::Searched { chosen: self.chosen, rank }
+        })
+    }
+}
+
+/// Why a recoverable hidden effect was not chosen ([`CaseResult::miss`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Miss {
+    /// The calibrated model sat at `ratio` × its floor, under the `needed` ratio of the
+    /// decision's floor margin, so nothing was judged missing; `rank` is the hidden effect's.
+    UnderMargin { ratio: f64, needed: f64, rank: Option<usize> },
+    /// Above the margin, the search chose another effect, or nothing (None) because no trial
+    /// was significant; `rank` is the hidden effect's.
+    Searched { chosen: Option<EffectKind>, rank: Option<usize> },
+}
+
+impl Miss {
+    /// One line: `"under the floor margin at 1.42 × its floor (needs 1.50 ×), ranked 1"` or
+    /// `"ranked 3, unbalance chosen"`.
+    pub fn text(&self) -> String {
+        let rank = |r: &Option<usize>| r.map_or("not ranked".to_string(), |r| format!("ranked {r}"));
+        match self {
+            Miss::UnderMargin { ratio, needed, rank: r } => format!("under the floor margin at {ratio:.2} × its floor (needs {needed:.2} ×), {}", rank(r)),
+            Miss::Searched { chosen, rank: r } => format!("{}, {}", rank(r), chosen.map_or("no trial significant".to_string(), |k| format!("{} chosen", k.name()))),
+        }
+    }
 }
 
 fn uniform(r: &mut impl rand::Rng, lo: f64, hi: f64) -> f64 {
@@ -454,6 +493,47 @@ mod tests {
             applied_values: applied.map(|(_, p, v)| vec![(p, v)]).unwrap_or_default(),
             ..Default::default()
         }
+    }
+
+    /// A single case as `confusion --json` writes it: `hidden` hidden, `chosen` chosen, the
+    /// calibrated model at `objective` against a floor of 2 with the decision needing 1.5 ×.
+    fn case(hidden: Option<&str>, chosen: Option<&str>, rank: Option<usize>, objective: f64, oracle: Oracle) -> CaseResult {
+        let trial = serde_json::json!({
+            "effect": hidden.unwrap_or("slip"), "parameter": null, "extra_parameters": [],
+            "objective_before": objective, "objective_after": objective - 0.5,
+            "envelope_nrmse_before": 2.0, "envelope_nrmse_after": 1.0, "reduction": 0.1,
+            "evidence": "", "summary": ""
+        });
+        let mut c: CaseResult = serde_json::from_value(serde_json::json!({
+            "hidden": hidden, "true_parameter": null, "snr_db": 10.0, "ranking": [],
+            "rank_of_hidden": rank, "chosen": chosen, "envelope_nrmse_before": 2.0,
+            "envelope_nrmse_after": 1.0, "verdict": "", "reductions": [], "seconds": 1.0,
+            "floor_objective": 2.0, "floor_ratio_needed": 1.5, "trials": [trial]
+        }))
+        .unwrap();
+        c.oracle = oracle;
+        c
+    }
+
+    #[test]
+    fn a_recoverable_miss_says_whether_the_floor_margin_or_the_search_missed_it() {
+        // The truth at 2.0 ± 0.05, 4.0 without its hidden effect: visible.
+        let o = || oracle_of(&[2.0, 2.05, 1.95, 2.0], &[4.0, 4.1, 3.9, 4.0]);
+        // At 2.84 (1.42 × a floor of 2) the model is worse than the truth, under the 1.5 ratio.
+        let under = case(Some("unbalance"), None, Some(1), 2.84, o());
+        assert!(under.recoverable());
+        let Some(Miss::UnderMargin { ratio, needed, rank }) = under.miss() else { panic!("{:?}", under.miss()) };
+        assert!((ratio - 1.42).abs() < 1e-12 && needed == 1.5 && rank == Some(1));
+        assert_eq!(under.miss().unwrap().text(), "under the floor margin at 1.42 × its floor (needs 1.50 ×), ranked 1");
+        // Above the margin with another effect chosen: the search's miss.
+        let other = case(Some("unbalance"), Some("misalignment"), Some(2), 4.0, o());
+        assert_eq!(other.miss(), Some(Miss::Searched { chosen: Some(EffectKind::Misalignment), rank: Some(2) }));
+        assert_eq!(other.miss().unwrap().text(), "ranked 2, misalignment chosen");
+        assert_eq!(case(Some("unbalance"), None, Some(4), 4.0, o()).miss().unwrap().text(), "ranked 4, no trial significant");
+        // Found, not recoverable, or a control: no miss.
+        assert_eq!(case(Some("unbalance"), Some("unbalance"), Some(1), 4.0, o()).miss(), None);
+        assert_eq!(case(Some("unbalance"), None, Some(1), 2.02, o()).miss(), None, "absorbed: as good as the truth");
+        assert_eq!(case(None, None, None, 4.0, oracle_of(&[2.0, 2.1], &[])).miss(), None);
     }
 
     fn oracle_of(truth: &[f64], without: &[f64]) -> Oracle {
