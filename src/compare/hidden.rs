@@ -197,16 +197,18 @@ impl CaseResult {
     }
 
     /// Why a recoverable hidden effect was not chosen; None when it was, when the case is not
-    /// recoverable, or for a control. The decision's floor ratio comes first: under it the
-    /// search judged nothing missing, whatever the trials showed.
+    /// recoverable, or for a control. A case that chose nothing with its model under the
+    /// decision's floor ratio (the test of `diagnose::above_floor`, read off the recorded
+    /// ratio; 0 when the decision used none) was held back by the margin, whatever the trials
+    /// showed; a case that chose another effect (also possible under the margin with the
+    /// near-floor rule) was missed by the search.
     pub fn miss(&self) -> Option<Miss> {
         if self.hidden.is_none() || self.chosen == self.hidden || !self.recoverable() {
             return None;
         }
-        let ratio = self.calibrated_objective() / self.floor_objective;
-        let rank = self.rank_of_hidden;
-        Some(if self.floor_ratio_needed > 0.0 && ratio < self.floor_ratio_needed {
-            Miss::UnderMargin { ratio, needed: self.floor_ratio_needed, rank }
+        let (j, needed, rank) = (self.calibrated_objective(), self.floor_ratio_needed, self.rank_of_hidden);
+        Some(if self.chosen.is_none() && needed > 0.0 && j < needed * self.floor_objective {
+            Miss::UnderMargin { ratio: j / self.floor_objective, needed, rank }
         } else {
             Miss::Searched { chosen: self.chosen, rank }
         })
@@ -529,6 +531,9 @@ mod tests {
         let other = case(Some("unbalance"), Some("misalignment"), Some(2), 4.0, o());
         assert_eq!(other.miss(), Some(Miss::Searched { chosen: Some(EffectKind::Misalignment), rank: Some(2) }));
         assert_eq!(other.miss().unwrap().text(), "ranked 2, misalignment chosen");
+        // Another effect chosen under the margin (the near-floor rule): the search's miss too.
+        let near = case(Some("unbalance"), Some("misalignment"), Some(2), 2.84, o());
+        assert_eq!(near.miss(), Some(Miss::Searched { chosen: Some(EffectKind::Misalignment), rank: Some(2) }));
         assert_eq!(case(Some("unbalance"), None, Some(4), 4.0, o()).miss().unwrap().text(), "ranked 4, no trial significant");
         // Found, not recoverable, or a control: no miss.
         assert_eq!(case(Some("unbalance"), Some("unbalance"), Some(1), 4.0, o()).miss(), None);
