@@ -287,6 +287,11 @@ struct SearchArgs {
     /// response) then compete only on what N bands cannot absorb.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_PATH_CORRECTION_BANDS as i64))]
     path_correction: u16,
+    /// Normalise every SCF α-slice by the measured SCF over all compared slices instead of by
+    /// its own range (experimental, off by default; docs/loop-notebook.md "One normaliser for
+    /// the SCF slices").
+    #[arg(long)]
+    scf_one_normaliser: bool,
     /// The significance test: `floor_margin` (objective at least 1.5 × its seed floor with one
     /// realisation, 1.87 × with several; the default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
     /// must account for the share: switching it off again in the trial's fit must cost it;
@@ -349,6 +354,7 @@ impl SearchArgs {
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
         let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: self.fine_forces, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
+        o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o
     }
 }

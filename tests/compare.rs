@@ -245,3 +245,36 @@ fn the_scatter_of_the_mean_is_taken_out_so_the_error_does_not_depend_on_the_numb
     let one = r.compare(&reals[0]).unwrap();
     assert!(one.domains.iter().all(|d| d.scatter_rmse == 0.0 && d.debiased_nrmse_percent() == d.metrics.nrmse_percent));
 }
+
+#[test]
+fn one_scf_normaliser_does_not_scale_estimator_noise_up_to_a_slice_s_own_range() {
+    // Without shaft-rate modulation (BPFI is no multiple of the shaft speed) the α = shaft slice
+    // holds little but the estimator's own error.
+    let measured = bearing_signal(12000.0, 2.0, 0.0, 1);
+    let model = bearing_signal(12000.0, 2.0, 0.0, 5);
+    let one = compare(&measured, &model, &CompareOptions { scf_one_normaliser: true, ..opts() }).unwrap();
+    let own = compare(&measured, &model, &opts()).unwrap();
+    let slices: Vec<_> = one.domains.iter().filter(|d| d.domain.starts_with("scf_alpha")).collect();
+    assert_eq!(slices.len(), 2, "α = 0 and α = shaft");
+    // One normaliser: max − min of the measured SCF over both slices.
+    let pooled: Vec<f64> = slices.iter().flat_map(|d| d.measured.iter().copied()).collect();
+    let (lo, hi) = pooled.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    for d in &slices {
+        assert!((d.metrics.normaliser_value - (hi - lo)).abs() <= 1e-12 * hi, "{}: {} against {}", d.domain, d.metrics.normaliser_value, hi - lo);
+        assert!((d.metrics.nrmse_percent - d.metrics.rmse / (hi - lo) * 100.0).abs() < 1e-9, "{}", d.domain);
+    }
+    // |S(α, f)| ≤ √(S(0, f + α/2) S(0, f − α/2)): the α = 0 slice holds the peak, so its NRMSE
+    // hardly moves.
+    let zero = |c: &twinscope::compare::Comparison| c.domain("scf_alpha_0").unwrap().metrics.clone();
+    assert_eq!(zero(&one).rmse, zero(&own).rmse);
+    assert!(slices[0].measured.iter().cloned().fold(f64::NEG_INFINITY, f64::max) == hi);
+    assert!((zero(&one).nrmse_percent / zero(&own).nrmse_percent - 1.0).abs() < 0.02, "{} against {}", zero(&one).nrmse_percent, zero(&own).nrmse_percent);
+    // The shaft slice: the same error, no longer scaled up to the range of its noise.
+    let shaft = |c: &twinscope::compare::Comparison| c.domain("scf_alpha_shaft").unwrap().metrics.clone();
+    assert_eq!(shaft(&one).rmse, shaft(&own).rmse);
+    assert!(shaft(&own).nrmse_percent > 10.0 * shaft(&one).nrmse_percent, "own range {:.2} %, the SCF's {:.3} %", shaft(&own).nrmse_percent, shaft(&one).nrmse_percent);
+    // The other domains are not touched.
+    for d in ["envelope", "psd_db"] {
+        assert_eq!(one.domain(d).unwrap().metrics, own.domain(d).unwrap().metrics, "{d}");
+    }
+}

@@ -221,6 +221,10 @@ pub struct LoopSpec {
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
     #[serde(default)]
     pub path_correction_bands: usize,
+    /// Every SCF α-slice normalised by the measured SCF over all compared slices
+    /// (`CompareOptions::scf_one_normaliser`, experimental). Default false: each by its own range.
+    #[serde(default)]
+    pub scf_one_normaliser: bool,
     /// The significance test (`LoopOptions::decision_rule`): `"floor_margin"` (default) or
     /// `"scatter"` (experimental).
     #[serde(default)]
@@ -286,6 +290,7 @@ impl LoopSpec {
         crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
         let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, fine_forces: self.fine_forces, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
+        o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
         let chain_band = chain.stages.iter().find_map(|s| match &s.op {
             chain::Op::Bandpass(b) => Some(b.pass_band_hz),
@@ -573,6 +578,9 @@ mod tests {
         assert_eq!(spec.options(&chain).unwrap().compare.path_correction_bands, 0);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npath_correction_bands = 24").unwrap();
         assert_eq!(spec.options(&chain).unwrap().compare.path_correction_bands, 24);
+        assert!(!spec.options(&chain).unwrap().compare.scf_one_normaliser, "each SCF slice by its own range by default");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nscf_one_normaliser = true").unwrap();
+        assert!(spec.options(&chain).unwrap().compare.scf_one_normaliser);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\ndecision_rule = \"scatter\"").unwrap();
         assert_eq!(spec.options(&chain).unwrap().decision_rule, crate::compare::DecisionRule::Scatter);
         assert!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"\ndecision_rule = \"vibes\"").unwrap_err().to_string().contains("vibes"));

@@ -144,9 +144,17 @@ pub fn nrmse_percent(rmse: f64, normaliser_value: f64) -> f64 {
 /// All metrics of `simulated` against `measured` (equal lengths; the shorter length is used).
 pub fn metrics(measured: &[f64], simulated: &[f64], normaliser: Normaliser, max_lag: usize) -> Metrics {
     let n = measured.len().min(simulated.len());
+    metrics_normalised_by(measured, simulated, normaliser, normaliser.value(&measured[..n]), max_lag)
+}
+
+/// [`metrics`] with the normalising value given: `normaliser` taken over a larger measured
+/// quantity than the part compared here (every SCF α-slice is normalised by the measured SCF
+/// over all compared slices, see [`super::CompareOptions::scf_one_normaliser`]).
+pub fn metrics_normalised_by(measured: &[f64], simulated: &[f64], normaliser: Normaliser, normaliser_value: f64, max_lag: usize) -> Metrics {
+    let n = measured.len().min(simulated.len());
     let (a, b) = (&measured[..n], &simulated[..n]);
     let rmse = if n == 0 { 0.0 } else { (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / n as f64).sqrt() };
-    let nv = normaliser.value(a);
+    let nv = normaliser_value;
     let (xp, lag) = xcorr_peak(a, b, max_lag);
     Metrics {
         pearson: pearson(a, b),
