@@ -281,6 +281,13 @@ struct SearchArgs {
     /// forces"). Off by default.
     #[arg(long)]
     fine_forces: bool,
+    /// Experimental: after every full-range fit (the calibration, a trial that re-does it),
+    /// N sweeps of local line searches on its parameters, the bracket ± 8 % of each range
+    /// halved every sweep: coordinate descent over the full ranges can stop short of the
+    /// optimum of coupled parameters (resonance and damping), which reads as something missing
+    /// (docs/loop-notebook.md "A calibration polish"). 0 (off, the default) to 8.
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=twinscope::compare::MAX_POLISH_SWEEPS as i64))]
+    polish_sweeps: u8,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
     /// path the model does not describe. Spectral-shape effects (casing modes, sensor
@@ -352,7 +359,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: self.fine_forces, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps as usize, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o

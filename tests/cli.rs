@@ -209,6 +209,16 @@ fn substeps_override_the_machine_and_are_checked() {
 }
 
 #[test]
+fn polish_sweeps_out_of_range_are_refused_before_any_work() {
+    let measured = cwru("105_de_inner_007_0hp_12k.mat");
+    for bad in ["9", "-1", "x"] {
+        let arg = format!("--polish-sweeps={bad}");
+        assert_clean_failure(&run(&["diagnose", measured.to_str().unwrap(), "--preset", "cwru_6205_inner", &arg]), &["--polish-sweeps", bad]);
+        assert_clean_failure(&run(&["confusion", "--controls", "1", &arg]), &["--polish-sweeps", bad]);
+    }
+}
+
+#[test]
 fn simulate_writes_a_signal_that_info_reads_back() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("sim.wav");

@@ -217,6 +217,10 @@ pub struct LoopSpec {
     /// (`LoopOptions::fine_forces`, experimental). Default false.
     #[serde(default)]
     pub fine_forces: bool,
+    /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`,
+    /// experimental), 0–8. Default 0 (off).
+    #[serde(default)]
+    pub polish_sweeps: usize,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
     #[serde(default)]
@@ -288,7 +292,7 @@ impl LoopSpec {
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
         crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, fine_forces: self.fine_forces, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
@@ -569,6 +573,12 @@ mod tests {
         assert!(!spec.options(&chain).unwrap().fine_forces, "off by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = true").unwrap();
         assert!(spec.options(&chain).unwrap().fine_forces);
+        assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 0, "off by default");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 4);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 9").unwrap();
+        let e = spec.options(&chain).unwrap_err();
+        assert!(e.contains("polish_sweeps") && e.contains("9"), "{e}");
     }
 
     #[test]

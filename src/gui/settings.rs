@@ -68,6 +68,9 @@ pub struct Settings {
     /// Model loop: a periodic force's amplitude is fitted with twice the line-search
     /// evaluations (`LoopOptions::fine_forces`, experimental).
     pub loop_fine_forces: bool,
+    /// Model loop: sweeps of local line searches after every full-range fit
+    /// (`LoopOptions::polish_sweeps`, experimental; 0 = off).
+    pub loop_polish_sweeps: usize,
 }
 
 impl Default for Settings {
@@ -97,6 +100,7 @@ impl Default for Settings {
             loop_scan_force_amplitudes: LoopOptions::default().scan_force_amplitudes,
             loop_unbend_when_stuck: LoopOptions::default().unbend_when_stuck,
             loop_fine_forces: LoopOptions::default().fine_forces,
+            loop_polish_sweeps: LoopOptions::default().polish_sweeps,
         }
     }
 }
@@ -160,6 +164,7 @@ impl Settings {
             scan_force_amplitudes: self.loop_scan_force_amplitudes,
             unbend_when_stuck: self.loop_unbend_when_stuck,
             fine_forces: self.loop_fine_forces,
+            polish_sweeps: self.loop_polish_sweeps,
             ..Default::default()
         }
     }
