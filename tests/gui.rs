@@ -491,10 +491,10 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     assert_eq!(o.floor_margin, 0.5);
     set(&mut h, "floor margin", 0.2);
     assert_eq!(h.state().settings.loop_options(Default::default()).floor_margin, 0.2);
-    // The calibration polish: the library's default (4 sweeps) until changed.
-    assert_eq!(o.polish_sweeps, 4);
-    set(&mut h, "calibration polish", 0.0);
-    assert_eq!(h.state().settings.loop_options(Default::default()).polish_sweeps, 0);
+    // The experimental calibration polish: off until set.
+    assert_eq!(o.polish_sweeps, 0);
+    set(&mut h, "calibration polish (experimental)", 4.0);
+    assert_eq!(h.state().settings.loop_options(Default::default()).polish_sweeps, 4);
     // Beyond the range: the editor clamps to the library's limit.
     set(&mut h, "model realisations", 99.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);

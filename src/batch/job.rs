@@ -217,9 +217,9 @@ pub struct LoopSpec {
     /// (`LoopOptions::fine_forces`, experimental). Default false.
     #[serde(default)]
     pub fine_forces: bool,
-    /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`),
-    /// 0–8. Default: the library's (4 since session 37; 0 is the older calibration).
-    #[serde(default = "LoopSpec::default_polish_sweeps")]
+    /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`,
+    /// experimental), 0–8. Default 0 (off).
+    #[serde(default)]
     pub polish_sweeps: usize,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
@@ -254,10 +254,6 @@ impl LoopSpec {
 
     fn default_refit_when_stuck() -> bool {
         crate::compare::LoopOptions::default().refit_when_stuck
-    }
-
-    fn default_polish_sweeps() -> usize {
-        crate::compare::LoopOptions::default().polish_sweeps
     }
 
     fn default_unbend_when_stuck() -> bool {
@@ -577,9 +573,9 @@ mod tests {
         assert!(!spec.options(&chain).unwrap().fine_forces, "off by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = true").unwrap();
         assert!(spec.options(&chain).unwrap().fine_forces);
-        assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 4, "on by default since session 37");
-        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 0").unwrap();
-        assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 0);
+        assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 0, "off by default");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4").unwrap();
+        assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 4);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 9").unwrap();
         let e = spec.options(&chain).unwrap_err();
         assert!(e.contains("polish_sweeps") && e.contains("9"), "{e}");

@@ -412,10 +412,8 @@ pub struct LoopOptions {
     /// record (seed 6803 of the bearing base: 5.94 calibrated against 4.59 at the true
     /// parameters, resonance 1349 Hz and damping 0.080 for a true 1277 Hz and 0.045; four
     /// polish sweeps reach 4.64); such a shortfall is read as something missing. At most
-    /// [`MAX_POLISH_SWEEPS`]. Default: 4 (since session 37, by the rule written before its
-    /// fresh-seed runs: as many finds, no false claim, controls clean, the calibration closer
-    /// to the true machine's; docs/loop-notebook.md "A calibration polish"); 0 is the old
-    /// calibration.
+    /// [`MAX_POLISH_SWEEPS`]. Default: 0 (experimental; docs/loop-notebook.md "A calibration
+    /// polish").
     pub polish_sweeps: usize,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
@@ -529,7 +527,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, fine_forces: false, polish_sweeps: 4, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, fine_forces: false, polish_sweeps: 0, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -69,7 +69,7 @@ pub struct Settings {
     /// evaluations (`LoopOptions::fine_forces`, experimental).
     pub loop_fine_forces: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
-    /// (`LoopOptions::polish_sweeps`; 0 = off).
+    /// (`LoopOptions::polish_sweeps`, experimental; 0 = off).
     pub loop_polish_sweeps: usize,
 }
 

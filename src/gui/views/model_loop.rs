@@ -140,7 +140,7 @@ impl ModelLoopView {
                 ui.label("calibration sweeps");
                 ui.add(egui::DragValue::new(&mut s.loop_sweeps).range(0..=5));
                 ui.end_row();
-                let l = ui.label("calibration polish").on_hover_text("after every full-range fit, this many sweeps of local line searches on its parameters, the bracket ± 8 % of each range halved every sweep (0 = off): coordinate descent over the full ranges can stop short of the optimum of coupled parameters (resonance and damping), and a calibration that falls short reads as something missing");
+                let l = ui.label("calibration polish (experimental)").on_hover_text("after every full-range fit, this many sweeps of local line searches on its parameters, the bracket ± 8 % of each range halved every sweep (0 = off): coordinate descent over the full ranges can stop short of the optimum of coupled parameters (resonance and damping), and a calibration that falls short reads as something missing");
                 ui.add(egui::DragValue::new(&mut s.loop_polish_sweeps).range(0..=crate::compare::MAX_POLISH_SWEEPS).suffix(" sweeps")).labelled_by(l.id);
                 ui.end_row();
                 ui.label("transfer-path correction").on_hover_text("fit a smooth gain curve on this many log-spaced PSD bands to every evaluation before comparing (0 = off): for a real record whose sensor path the model does not describe; spectral-shape effects then compete only on what the bands cannot absorb");
