@@ -286,7 +286,7 @@ struct SearchArgs {
     /// halved every sweep: coordinate descent over the full ranges can stop short of the
     /// optimum of coupled parameters (resonance and damping), which reads as something missing
     /// (docs/loop-notebook.md "A calibration polish"). 0 (off, the default) to 8.
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=twinscope::compare::MAX_POLISH_SWEEPS as i64))]
+    #[arg(long, value_name = "N", default_value_t = twinscope::compare::LoopOptions::default().polish_sweeps as u8, value_parser = clap::value_parser!(u8).range(0..=twinscope::compare::MAX_POLISH_SWEEPS as i64))]
     polish_sweeps: u8,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor

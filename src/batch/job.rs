@@ -218,8 +218,8 @@ pub struct LoopSpec {
     #[serde(default)]
     pub fine_forces: bool,
     /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`,
-    /// experimental), 0–8. Default 0 (off).
-    #[serde(default)]
+    /// experimental), 0–8. Default: the library's (0, off).
+    #[serde(default = "LoopSpec::default_polish_sweeps")]
     pub polish_sweeps: usize,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
@@ -254,6 +254,10 @@ impl LoopSpec {
 
     fn default_refit_when_stuck() -> bool {
         crate::compare::LoopOptions::default().refit_when_stuck
+    }
+
+    fn default_polish_sweeps() -> usize {
+        crate::compare::LoopOptions::default().polish_sweeps
     }
 
     fn default_unbend_when_stuck() -> bool {
