@@ -259,11 +259,16 @@ struct SearchArgs {
     /// spectral feature (docs/loop-notebook.md "A near-floor rule"). Off by default.
     #[arg(long)]
     near_floor_rule: bool,
-    /// Experimental: the plain trial scans a periodic force's amplitude (unbalance,
-    /// misalignment, belt force) on a grid before its line search, as the trials from the
-    /// uncalibrated values do: its objective has a narrow minimum and other dips decades away
-    /// (docs/loop-notebook.md "A bent calibration that pins nothing"). Off by default.
+    /// Do not scan a periodic force's amplitude (unbalance, misalignment, belt force) on a
+    /// grid before the plain trial's line search (the default does, as the trials from the
+    /// uncalibrated values do: its objective has a narrow minimum and other dips decades away,
+    /// docs/loop-notebook.md "A bent calibration that pins nothing" and "Scanned forces by
+    /// default?"). Faster, and can close on the wrong dip for a strong force.
     #[arg(long)]
+    no_scan_forces: bool,
+    /// The default since session 39 (see --no-scan-forces); accepted so that older commands
+    /// run unchanged.
+    #[arg(long, hide = true, conflicts_with = "no_scan_forces")]
     scan_forces: bool,
     /// Do not search a stuck diagnosis whose calibration pins nothing again with every trial
     /// also started from the uncalibrated values (the default does, a stuck one-realisation
@@ -359,7 +364,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps as usize, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps as usize, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o

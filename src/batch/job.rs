@@ -206,8 +206,8 @@ pub struct LoopSpec {
     #[serde(default)]
     pub near_floor_rule: bool,
     /// The plain trial scans a periodic force's amplitude on a grid
-    /// (`LoopOptions::scan_force_amplitudes`, experimental). Default false.
-    #[serde(default)]
+    /// (`LoopOptions::scan_force_amplitudes`). Default: the library's (true, since session 39).
+    #[serde(default = "LoopSpec::default_scan_force_amplitudes")]
     pub scan_force_amplitudes: bool,
     /// A stuck diagnosis whose calibration pins nothing is done again unbent
     /// (`LoopOptions::unbend_when_stuck`). Default true (since session 31).
@@ -258,6 +258,10 @@ impl LoopSpec {
 
     fn default_polish_sweeps() -> usize {
         crate::compare::LoopOptions::default().polish_sweeps
+    }
+
+    fn default_scan_force_amplitudes() -> bool {
+        crate::compare::LoopOptions::default().scan_force_amplitudes
     }
 
     fn default_unbend_when_stuck() -> bool {
@@ -568,9 +572,9 @@ mod tests {
         assert!(!spec.options(&chain).unwrap().near_floor_rule, "off by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nnear_floor_rule = true").unwrap();
         assert!(spec.options(&chain).unwrap().near_floor_rule);
-        assert!(!spec.options(&chain).unwrap().scan_force_amplitudes, "off by default");
-        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nscan_force_amplitudes = true").unwrap();
-        assert!(spec.options(&chain).unwrap().scan_force_amplitudes);
+        assert!(spec.options(&chain).unwrap().scan_force_amplitudes, "on by default, as in the library");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nscan_force_amplitudes = false").unwrap();
+        assert!(!spec.options(&chain).unwrap().scan_force_amplitudes);
         assert!(spec.options(&chain).unwrap().unbend_when_stuck, "on by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_stuck = false").unwrap();
         assert!(!spec.options(&chain).unwrap().unbend_when_stuck);

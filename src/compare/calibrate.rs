@@ -381,8 +381,9 @@ pub struct LoopOptions {
     /// about a factor 2 wide and other dips decades away (an unbalance beside a misalignment:
     /// 3.4 at its true 2.5e-4 kg·m, 18.8 at 3e-3, 12.9 at 7e-3), and a golden section over
     /// the four decades of its range can close on the wrong one. Three times the
-    /// evaluations for those parameters. Default: off (experimental; docs/loop-notebook.md "A bent
-    /// calibration that pins nothing").
+    /// evaluations for those parameters. Default: on since session 39, by a fresh-seed test
+    /// written before its runs (docs/loop-notebook.md "Scanned forces by default?"; the
+    /// mechanism: "A bent calibration that pins nothing").
     pub scan_force_amplitudes: bool,
     /// A diagnosis that is stuck (nothing significant, the objective still above the floor
     /// margin's ratio) with a calibration that pins nothing is done again with every trial
@@ -527,7 +528,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: false, unbend_when_stuck: true, fine_forces: false, polish_sweeps: 0, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, fine_forces: false, polish_sweeps: 0, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

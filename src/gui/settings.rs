@@ -60,7 +60,7 @@ pub struct Settings {
     /// experimental).
     pub loop_near_floor_rule: bool,
     /// Model loop: the plain trial scans a periodic force's amplitude on a grid
-    /// (`LoopOptions::scan_force_amplitudes`, experimental).
+    /// (`LoopOptions::scan_force_amplitudes`, on by default).
     pub loop_scan_force_amplitudes: bool,
     /// Model loop: a stuck diagnosis is done again unbent (`LoopOptions::unbend_when_stuck`,
     /// on by default since session 31).
