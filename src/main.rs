@@ -266,7 +266,7 @@ struct SearchArgs {
     /// default?"). Faster, and can close on the wrong dip for a strong force.
     #[arg(long)]
     no_scan_forces: bool,
-    /// The default since session 39 (see --no-scan-forces); accepted so that older commands
+    /// The default since session 40 (see --no-scan-forces); accepted so that older commands
     /// run unchanged.
     #[arg(long, hide = true, conflicts_with = "no_scan_forces")]
     scan_forces: bool,
@@ -280,11 +280,16 @@ struct SearchArgs {
     /// commands run unchanged.
     #[arg(long, hide = true, conflicts_with = "no_unbend_when_stuck")]
     unbend_when_stuck: bool,
-    /// Experimental: fit a periodic force's amplitude (unbalance, misalignment, belt) with
-    /// twice the evaluations in its line search, to about 0.5 % instead of ±18 %: the
-    /// objective's minimum in a force is about 1 % wide (docs/loop-notebook.md "Fine
-    /// forces"). Off by default.
+    /// Fit a periodic force's amplitude (unbalance, misalignment, belt) with the plain line
+    /// search's evaluations only, not twice them (the default: to about 0.5 % instead of ±18 %,
+    /// the objective's minimum in a force being about 1 % wide; docs/loop-notebook.md "Fine
+    /// forces" and "Scanned and fine forces together by default?"). Faster, and a force left a
+    /// few percent off leaves error another effect can stand in for.
     #[arg(long)]
+    no_fine_forces: bool,
+    /// The default since session 40 (see --no-fine-forces); accepted so that older commands
+    /// run unchanged.
+    #[arg(long, hide = true, conflicts_with = "no_fine_forces")]
     fine_forces: bool,
     /// Experimental: after every full-range fit (the calibration, a trial that re-does it),
     /// N sweeps of local line searches on its parameters, the bracket ± 8 % of each range
@@ -364,7 +369,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps as usize, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o

@@ -473,16 +473,16 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("near-floor rule: a decisive, untied trial is a finding from 1.2 × the floor (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).near_floor_rule);
-    // The scan of periodic forces: on by default (since session 39) until unticked.
+    // The scan of periodic forces: on by default (since session 40) until unticked.
     assert!(o.scan_force_amplitudes);
     h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid").click_accesskit();
     h.run_steps(3);
     assert!(!h.state().settings.loop_options(Default::default()).scan_force_amplitudes);
-    // The experimental fine force fit: off until ticked.
-    assert!(!o.fine_forces);
-    h.get_by_label("fine forces: an unbalance, misalignment or belt force gets twice the line-search evaluations (experimental)").click_accesskit();
+    // The fine force fit: on by default (since session 40) until unticked.
+    assert!(o.fine_forces);
+    h.get_by_label("fine forces: an unbalance, misalignment or belt force gets twice the line-search evaluations").click_accesskit();
     h.run_steps(3);
-    assert!(h.state().settings.loop_options(Default::default()).fine_forces);
+    assert!(!h.state().settings.loop_options(Default::default()).fine_forces);
     assert!(o.unbend_when_stuck, "on by default");
     h.get_by_label("unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values").click_accesskit();
     h.run_steps(3);

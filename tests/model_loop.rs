@@ -333,9 +333,11 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     // the replacement step. It runs with one model realisation, as the table did: with two,
     // round 1 applies a rough extended fault instead of the unbalance
     // (objective 24.7 → 14.8, 43 %), round 2 replaces it by the misalignment the same way, and
-    // the loop ends as here, with the misalignment and no false claim.
-    use EffectKind::*;
-    let opts = LoopOptions { realisations: 1, unbend_pinned: false, candidates: vec![Unbalance, Misalignment, PathModulation, ExtendedFault, ToothFault, BeltDrive, SpeedFluctuation], ..Default::default() };
+    // the loop ends as here, with the misalignment and no false claim. The force scan and the
+    // fine force fit (the defaults since session 40) are off too: with the scan, round 1's
+    // plain trial fits the misalignment itself and there is no stand-in to replace (the next
+    // test; docs/loop-notebook.md "Scanned forces by default?").
+    let opts = LoopOptions { realisations: 1, unbend_pinned: false, scan_force_amplitudes: false, fine_forces: false, candidates: replacement_candidates(), ..Default::default() };
     let r = hidden::run_multi_case(&base, &hide, REPLACEMENT_SEED, 10.0, 3, &opts).unwrap();
     let steps: Vec<_> = r.history.iter().map(|h| (h.objective, h.floor_objective, h.change("-"), h.verdict.clone())).collect();
     eprintln!("true {:?}, SNR {:.1} dB; rounds {steps:#?}", r.true_parameters, r.snr_db);
@@ -361,6 +363,38 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     }
     assert!(r.false_claims.is_empty(), "false claims {:?}", r.false_claims);
     assert!(r.applied.contains(&EffectKind::Misalignment), "applied {:?}", r.applied);
+}
+
+/// The seven candidates of the replacement test (casing_modes, sensor_response and slip left
+/// out for time).
+fn replacement_candidates() -> Vec<EffectKind> {
+    use EffectKind::*;
+    vec![Unbalance, Misalignment, PathModulation, ExtendedFault, ToothFault, BeltDrive, SpeedFluctuation]
+}
+
+/// The replacement test's pair and setting (seed 2402, unbending off, seven candidates, one
+/// realisation) with the force scan and the fine force fit of the default: round 1's plain
+/// trial fits the misalignment itself (a golden section alone closes on the unbalance that
+/// stands in for both), and the force, fitted to within about 1 %, leaves no error for a
+/// second force to stand in for. With the scan alone, round 2 applied an unbalance never
+/// hidden (1.09e-4 kg·m; docs/loop-notebook.md "Scanned forces by default?").
+#[test]
+fn with_scanned_and_fine_forces_the_pair_needs_no_replacement_and_ends_without_a_false_claim() {
+    let base = model::preset("mfs_healthy").unwrap();
+    let hide = [EffectKind::PathModulation, EffectKind::Misalignment];
+    let opts = LoopOptions { realisations: 1, unbend_pinned: false, candidates: replacement_candidates(), ..Default::default() };
+    assert!(opts.scan_force_amplitudes && opts.fine_forces, "the defaults this test is about");
+    let r = hidden::run_multi_case(&base, &hide, REPLACEMENT_SEED, 10.0, 3, &opts).unwrap();
+    let steps: Vec<_> = r.history.iter().map(|h| (h.objective, h.floor_objective, h.change_with_values("-"), h.verdict.clone())).collect();
+    eprintln!("true {:?}, SNR {:.1} dB; rounds {steps:#?}", r.true_parameters, r.snr_db);
+    assert_eq!(r.history[0].applied, Some(EffectKind::Misalignment), "round 1: {}", r.history[0].verdict);
+    let true_force = r.true_parameters.iter().find(|t| t.0 == Param::Misalignment2xN).unwrap().1;
+    match r.history[0].applied_values[..] {
+        [(Param::Misalignment2xN, f)] => assert!((f / true_force - 1.0).abs() < 0.05, "round 1 force {f:.2} N for {true_force:.2}"),
+        ref v => panic!("round 1 values {v:?}"),
+    }
+    assert!(r.history.iter().all(|h| h.removed.is_none()), "a replacement: {steps:#?}");
+    assert!(r.false_claims.is_empty(), "false claims {:?}: {steps:#?}", r.false_claims);
 }
 
 /// A hidden-effect case on the MFS inner-race rig, as `confusion --hide` draws it, with 10 s
@@ -872,8 +906,8 @@ fn a_fine_force_search_lands_in_the_narrow_minimum_of_its_amplitude() {
     start.seed ^= 7919;
     Param::Misalignment2xN.set(&mut start, 0.8 * true_force);
     // The line search alone, without the experimental calibration polish (which would move
-    // the force too), whatever the default.
-    let plain = LoopOptions { random_effect_realisations: 0, polish_sweeps: 0, ..Default::default() };
+    // the force too), and without the fine force fit (the default since session 40).
+    let plain = LoopOptions { random_effect_realisations: 0, polish_sweeps: 0, fine_forces: false, ..Default::default() };
     let fine = LoopOptions { fine_forces: true, ..plain.clone() };
     let reference = Reference::new(&measured, &plain.compare).unwrap();
     let params = [Param::Misalignment2xN];

@@ -206,7 +206,7 @@ pub struct LoopSpec {
     #[serde(default)]
     pub near_floor_rule: bool,
     /// The plain trial scans a periodic force's amplitude on a grid
-    /// (`LoopOptions::scan_force_amplitudes`). Default: the library's (true, since session 39).
+    /// (`LoopOptions::scan_force_amplitudes`). Default: the library's (true, since session 40).
     #[serde(default = "LoopSpec::default_scan_force_amplitudes")]
     pub scan_force_amplitudes: bool,
     /// A stuck diagnosis whose calibration pins nothing is done again unbent
@@ -214,8 +214,8 @@ pub struct LoopSpec {
     #[serde(default = "LoopSpec::default_unbend_when_stuck")]
     pub unbend_when_stuck: bool,
     /// A periodic force's amplitude is fitted with twice the line-search evaluations
-    /// (`LoopOptions::fine_forces`, experimental). Default false.
-    #[serde(default)]
+    /// (`LoopOptions::fine_forces`). Default: the library's (true, since session 40).
+    #[serde(default = "LoopSpec::default_fine_forces")]
     pub fine_forces: bool,
     /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`,
     /// experimental), 0–8. Default: the library's (0, off).
@@ -262,6 +262,10 @@ impl LoopSpec {
 
     fn default_scan_force_amplitudes() -> bool {
         crate::compare::LoopOptions::default().scan_force_amplitudes
+    }
+
+    fn default_fine_forces() -> bool {
+        crate::compare::LoopOptions::default().fine_forces
     }
 
     fn default_unbend_when_stuck() -> bool {
@@ -578,9 +582,9 @@ mod tests {
         assert!(spec.options(&chain).unwrap().unbend_when_stuck, "on by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_stuck = false").unwrap();
         assert!(!spec.options(&chain).unwrap().unbend_when_stuck);
-        assert!(!spec.options(&chain).unwrap().fine_forces, "off by default");
-        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = true").unwrap();
-        assert!(spec.options(&chain).unwrap().fine_forces);
+        assert!(spec.options(&chain).unwrap().fine_forces, "on by default, as in the library");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = false").unwrap();
+        assert!(!spec.options(&chain).unwrap().fine_forces);
         assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 0, "off by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4").unwrap();
         assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 4);

@@ -381,9 +381,10 @@ pub struct LoopOptions {
     /// about a factor 2 wide and other dips decades away (an unbalance beside a misalignment:
     /// 3.4 at its true 2.5e-4 kg·m, 18.8 at 3e-3, 12.9 at 7e-3), and a golden section over
     /// the four decades of its range can close on the wrong one. Three times the
-    /// evaluations for those parameters. Default: on since session 39, by a fresh-seed test
-    /// written before its runs (docs/loop-notebook.md "Scanned forces by default?"; the
-    /// mechanism: "A bent calibration that pins nothing").
+    /// evaluations for those parameters. Default: on since session 40, with
+    /// [`LoopOptions::fine_forces`], by fresh-seed tests written before their runs
+    /// (docs/loop-notebook.md "Scanned forces by default?" and "Scanned and fine forces
+    /// together by default?"; the mechanism: "A bent calibration that pins nothing").
     pub scan_force_amplitudes: bool,
     /// A diagnosis that is stuck (nothing significant, the objective still above the floor
     /// margin's ratio) with a calibration that pins nothing is done again with every trial
@@ -401,8 +402,10 @@ pub struct LoopOptions {
     /// misalignment, seed 4502, the true machine scores 2.40 and 2.76 / 3.95 with its
     /// misalignment 1 % / 3 % low). A force left a few percent off in a later round's
     /// calibration leaves error that another effect can stand in for. With 18 the section
-    /// ends within about 0.5 %. Default: off (experimental; docs/loop-notebook.md "Fine
-    /// forces").
+    /// ends within about 0.5 %. Default: on since session 40, with
+    /// [`LoopOptions::scan_force_amplitudes`], by a fresh-seed test of the two together
+    /// written before its runs (docs/loop-notebook.md "Scanned and fine forces together by
+    /// default?"; the mechanism: "Fine forces").
     pub fine_forces: bool,
     /// Sweeps of a polish after every full-range fit (the calibration, a trial that re-does
     /// the calibration with its effect, a start from the uncalibrated values): each fitted
@@ -528,7 +531,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, fine_forces: false, polish_sweeps: 0, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, fine_forces: true, polish_sweeps: 0, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -66,7 +66,7 @@ pub struct Settings {
     /// on by default since session 31).
     pub loop_unbend_when_stuck: bool,
     /// Model loop: a periodic force's amplitude is fitted with twice the line-search
-    /// evaluations (`LoopOptions::fine_forces`, experimental).
+    /// evaluations (`LoopOptions::fine_forces`, on by default).
     pub loop_fine_forces: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
     /// (`LoopOptions::polish_sweeps`, experimental; 0 = off).

@@ -164,7 +164,7 @@ impl ModelLoopView {
                 .on_hover_text("under the floor margin, from 1.2 × the seed floor: the best trial is a finding too when it explains at least 80 % of the error above the floor, switching its effect off again costs at least 50 %, no other trial is tied with it, and it places no spectral feature (a casing mode or roll-off can stand in for a resonance a few percent off)");
             ui.checkbox(&mut s.loop_scan_force_amplitudes, "scan forces: every trial scans an unbalance, misalignment or belt force on a grid")
                 .on_hover_text("a periodic force's objective has a narrow minimum among dips decades away: a line search alone can close on the wrong one for a strong force (three times the evaluations for those parameters)");
-            ui.checkbox(&mut s.loop_fine_forces, "fine forces: an unbalance, misalignment or belt force gets twice the line-search evaluations (experimental)")
+            ui.checkbox(&mut s.loop_fine_forces, "fine forces: an unbalance, misalignment or belt force gets twice the line-search evaluations")
                 .on_hover_text("the objective's minimum in a force is about 1 % wide and a 9-evaluation line search over its four decades ends within about ±18 %: a force left a few percent off leaves error another effect can stand in for");
             ui.checkbox(&mut s.loop_unbend_when_stuck, "unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values")
                 .on_hover_text("a calibration can bend the model to do without what is missing without reaching an edge of any range; this costs a second search, in stuck rounds only");
