@@ -320,8 +320,6 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     // takes the place of both. Round 2 finds nothing to add but is far above its floor: the
     // loop must replace the unbalance by the runner-up of round 1 (misalignment), lowering the
     // objective, and must end without the unbalance.
-    let base = model::preset("mfs_healthy").unwrap();
-    let hide = [EffectKind::PathModulation, EffectKind::Misalignment];
     // The table's options and 10 s record. The candidates leave out casing_modes (the
     // costliest trial), sensor_response and slip, none of which is in the table's top three of
     // round 1 or 2. Cut further, to the four effects that matter, misalignment joins round 2's
@@ -337,8 +335,7 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     // fine force fit (the defaults since session 40) are off too: with the scan, round 1's
     // plain trial fits the misalignment itself and there is no stand-in to replace (the next
     // test; docs/loop-notebook.md "Scanned forces by default?").
-    let opts = LoopOptions { realisations: 1, unbend_pinned: false, scan_force_amplitudes: false, fine_forces: false, candidates: replacement_candidates(), ..Default::default() };
-    let r = hidden::run_multi_case(&base, &hide, REPLACEMENT_SEED, 10.0, 3, &opts).unwrap();
+    let r = replacement_pair(LoopOptions { scan_force_amplitudes: false, fine_forces: false, ..Default::default() });
     let steps: Vec<_> = r.history.iter().map(|h| (h.objective, h.floor_objective, h.change("-"), h.verdict.clone())).collect();
     eprintln!("true {:?}, SNR {:.1} dB; rounds {steps:#?}", r.true_parameters, r.snr_db);
     assert_eq!(r.history[0].applied, Some(EffectKind::Unbalance), "round 1: {}", r.history[0].verdict);
@@ -365,11 +362,13 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     assert!(r.applied.contains(&EffectKind::Misalignment), "applied {:?}", r.applied);
 }
 
-/// The seven candidates of the replacement test (casing_modes, sensor_response and slip left
-/// out for time).
-fn replacement_candidates() -> Vec<EffectKind> {
+/// The replacement test's pair (seed 2402, path_modulation + misalignment on the gear base, 10
+/// s, three rounds) in its setting — one realisation, unbending off, seven candidates
+/// (casing_modes, sensor_response and slip left out for time) — over `opts` otherwise.
+fn replacement_pair(opts: LoopOptions) -> hidden::MultiCaseResult {
     use EffectKind::*;
-    vec![Unbalance, Misalignment, PathModulation, ExtendedFault, ToothFault, BeltDrive, SpeedFluctuation]
+    let opts = LoopOptions { realisations: 1, unbend_pinned: false, candidates: vec![Unbalance, Misalignment, PathModulation, ExtendedFault, ToothFault, BeltDrive, SpeedFluctuation], ..opts };
+    hidden::run_multi_case(&model::preset("mfs_healthy").unwrap(), &[PathModulation, Misalignment], REPLACEMENT_SEED, 10.0, 3, &opts).unwrap()
 }
 
 /// The replacement test's pair and setting (seed 2402, unbending off, seven candidates, one
@@ -380,11 +379,9 @@ fn replacement_candidates() -> Vec<EffectKind> {
 /// hidden (1.09e-4 kg·m; docs/loop-notebook.md "Scanned forces by default?").
 #[test]
 fn with_scanned_and_fine_forces_the_pair_needs_no_replacement_and_ends_without_a_false_claim() {
-    let base = model::preset("mfs_healthy").unwrap();
-    let hide = [EffectKind::PathModulation, EffectKind::Misalignment];
-    let opts = LoopOptions { realisations: 1, unbend_pinned: false, candidates: replacement_candidates(), ..Default::default() };
+    let opts = LoopOptions::default();
     assert!(opts.scan_force_amplitudes && opts.fine_forces, "the defaults this test is about");
-    let r = hidden::run_multi_case(&base, &hide, REPLACEMENT_SEED, 10.0, 3, &opts).unwrap();
+    let r = replacement_pair(opts);
     let steps: Vec<_> = r.history.iter().map(|h| (h.objective, h.floor_objective, h.change_with_values("-"), h.verdict.clone())).collect();
     eprintln!("true {:?}, SNR {:.1} dB; rounds {steps:#?}", r.true_parameters, r.snr_db);
     assert_eq!(r.history[0].applied, Some(EffectKind::Misalignment), "round 1: {}", r.history[0].verdict);
