@@ -162,136 +162,102 @@ impl SimulateSpec {
 /// missing effect, the best effect applied, and again, for up to `rounds` rounds or until
 /// nothing significant is missing (`compare::run_loop`); every round's metrics are kept.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct LoopSpec {
     /// Machine description (TOML), relative to the job file.
-    #[serde(default)]
     pub machine: Option<String>,
     /// A bundled machine preset (see `twinscope presets`).
-    #[serde(default)]
     pub preset: Option<String>,
     /// Effects on at the start (e.g. `noise`: every measurement is noisy).
-    #[serde(default)]
     pub with: Vec<String>,
     /// Effects off at the start.
-    #[serde(default)]
     pub without: Vec<String>,
     /// Rounds, 1–20. Default 3.
-    #[serde(default = "LoopSpec::default_rounds")]
     pub rounds: usize,
     /// Demodulation band of the envelope comparison, Hz. Default: the chain's first bandpass
     /// stage, else 900–1800 Hz.
-    #[serde(default)]
     pub band_hz: Option<[f64; 2]>,
     /// Effects the search may try. Default: every applicable effect the model lacks.
-    #[serde(default)]
     pub candidates: Vec<String>,
     /// Model time simulated per evaluation, s (0.2–60, `compare::FIT_DURATION_RANGE_S`).
     /// Default 1.5.
-    #[serde(default = "LoopSpec::default_fit_duration_s")]
     pub fit_duration_s: f64,
     /// When the calibration pins a parameter, also start the trials from the uncalibrated
     /// values (`LoopOptions::unbend_pinned`). Default true.
-    #[serde(default = "LoopSpec::default_unbend_pinned")]
     pub unbend_pinned: bool,
     /// Also start every trial from the uncalibrated values, pinned or not
     /// (`LoopOptions::uncalibrated_start`, experimental). Default false.
-    #[serde(default)]
     pub uncalibrated_start: bool,
     /// A stuck round with no kept replacement also re-fits each applied effect from the
     /// uncalibrated values (`LoopOptions::refit_when_stuck`). Default true.
-    #[serde(default = "LoopSpec::default_refit_when_stuck")]
     pub refit_when_stuck: bool,
     /// The experimental near-floor rule (`LoopOptions::near_floor_rule`). Default false.
-    #[serde(default)]
     pub near_floor_rule: bool,
     /// The plain trial scans a periodic force's amplitude on a grid
     /// (`LoopOptions::scan_force_amplitudes`). Default: the library's (true, since session 40).
-    #[serde(default = "LoopSpec::default_scan_force_amplitudes")]
     pub scan_force_amplitudes: bool,
     /// A stuck diagnosis whose calibration pins nothing is done again unbent
     /// (`LoopOptions::unbend_when_stuck`). Default true (since session 31).
-    #[serde(default = "LoopSpec::default_unbend_when_stuck")]
     pub unbend_when_stuck: bool,
     /// A periodic force's amplitude is fitted with twice the line-search evaluations
     /// (`LoopOptions::fine_forces`). Default: the library's (true, since session 40).
-    #[serde(default = "LoopSpec::default_fine_forces")]
     pub fine_forces: bool,
     /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`,
     /// experimental), 0–8. Default: the library's (0, off).
-    #[serde(default = "LoopSpec::default_polish_sweeps")]
     pub polish_sweeps: usize,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
-    #[serde(default)]
     pub path_correction_bands: usize,
     /// Every SCF α-slice normalised by the measured SCF over all compared slices
     /// (`CompareOptions::scf_one_normaliser`, experimental). Default false: each by its own range.
-    #[serde(default)]
     pub scf_one_normaliser: bool,
     /// The significance test (`LoopOptions::decision_rule`): `"floor_margin"` (default) or
     /// `"scatter"` (experimental).
-    #[serde(default)]
     pub decision_rule: crate::compare::DecisionRule,
     /// The floor margin of `"floor_margin"` (`LoopOptions::floor_margin`), ≥ 0. Default: the
     /// library's (0.5).
-    #[serde(default = "LoopSpec::default_floor_margin")]
     pub floor_margin: f64,
     /// Model realisations averaged per evaluation (`LoopOptions::realisations`), 1–16.
     /// Default: the library's.
-    #[serde(default = "LoopSpec::default_realisations")]
     pub realisations: usize,
     /// Realisations of the second look when a random effect leads a one-realisation search
     /// (`LoopOptions::random_effect_realisations`), 0 (off) to 16; default: the library's (4).
-    #[serde(default = "LoopSpec::default_random_effect_realisations")]
     pub random_effect_realisations: usize,
 }
 
+impl Default for LoopSpec {
+    /// No machine yet, three rounds, and every search option the library's
+    /// (`LoopOptions::default()`), so a job and the command line start from the same search.
+    fn default() -> Self {
+        let o = crate::compare::LoopOptions::default();
+        Self {
+            machine: None,
+            preset: None,
+            with: Vec::new(),
+            without: Vec::new(),
+            rounds: 3,
+            band_hz: None,
+            candidates: Vec::new(),
+            fit_duration_s: o.fit_duration_s,
+            unbend_pinned: o.unbend_pinned,
+            uncalibrated_start: o.uncalibrated_start,
+            refit_when_stuck: o.refit_when_stuck,
+            near_floor_rule: o.near_floor_rule,
+            scan_force_amplitudes: o.scan_force_amplitudes,
+            unbend_when_stuck: o.unbend_when_stuck,
+            fine_forces: o.fine_forces,
+            polish_sweeps: o.polish_sweeps,
+            path_correction_bands: o.compare.path_correction_bands,
+            scf_one_normaliser: o.compare.scf_one_normaliser,
+            decision_rule: o.decision_rule,
+            floor_margin: o.floor_margin,
+            realisations: o.realisations,
+            random_effect_realisations: o.random_effect_realisations,
+        }
+    }
+}
+
 impl LoopSpec {
-    fn default_unbend_pinned() -> bool {
-        true
-    }
-
-    fn default_refit_when_stuck() -> bool {
-        crate::compare::LoopOptions::default().refit_when_stuck
-    }
-
-    fn default_polish_sweeps() -> usize {
-        crate::compare::LoopOptions::default().polish_sweeps
-    }
-
-    fn default_scan_force_amplitudes() -> bool {
-        crate::compare::LoopOptions::default().scan_force_amplitudes
-    }
-
-    fn default_fine_forces() -> bool {
-        crate::compare::LoopOptions::default().fine_forces
-    }
-
-    fn default_unbend_when_stuck() -> bool {
-        crate::compare::LoopOptions::default().unbend_when_stuck
-    }
-
-    fn default_rounds() -> usize {
-        3
-    }
-
-    fn default_realisations() -> usize {
-        crate::compare::LoopOptions::default().realisations
-    }
-
-    fn default_random_effect_realisations() -> usize {
-        crate::compare::LoopOptions::default().random_effect_realisations
-    }
-
-    fn default_floor_margin() -> f64 {
-        crate::compare::LoopOptions::default().floor_margin
-    }
-
-    fn default_fit_duration_s() -> f64 {
-        crate::compare::LoopOptions::default().fit_duration_s
-    }
-
     /// The starting model.
     pub fn machine(&self, base_dir: &Path) -> Result<crate::model::Machine, String> {
         let at = |m: String| format!("`model_loop`: {m}");
@@ -552,6 +518,16 @@ impl Job {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_model_loop_given_nothing_searches_with_the_librarys_options() {
+        // Without a bandpass stage or a band, every option is `LoopOptions::default()`'s, so a
+        // changed library default reaches jobs without a second copy here.
+        let chain = Chain { name: "none".into(), description: String::new(), stages: Vec::new() };
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
+        assert_eq!(spec.options(&chain).unwrap(), crate::compare::LoopOptions::default());
+        assert_eq!(spec.rounds, 3);
+    }
 
     #[test]
     fn a_model_loop_unbends_pinned_calibrations_unless_told_not_to() {
