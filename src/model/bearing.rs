@@ -547,7 +547,10 @@ mod tests {
                 let later = race_depth(&per_pass, rel + 1e-6 / r, r, j);
                 assert!((later - d).abs() < 0.05 * sigma, "pass {turns} ball {j}: {d} then {later}");
                 seen.push(d);
-                assert_eq!(race_depth(&fixed, rel, r, j).to_bits(), fixed.depth_at(mid * r).to_bits());
+                // One profile: every pass and ball meets the same depth (up to the rounding of
+                // `rel` at large turns).
+                assert_eq!(race_depth(&fixed, rel, r, j).to_bits(), fixed.depth_at(wrap(rel) * r).to_bits());
+                assert!((race_depth(&fixed, rel, r, j) - fixed.depth_at(mid * r)).abs() < 1e-6 * sigma);
             }
         }
         let n = seen.len() as f64;
