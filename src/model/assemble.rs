@@ -2,7 +2,7 @@
 //! every effect that is on.
 
 use super::bearing::{BearingElement, BearingFault, ContactLaw, DepthProfile, ShaftMotion};
-use super::effects::NoiseColour;
+use super::effects::{ExtendedFault, NoiseColour};
 use super::error::ModelError;
 use super::gear::{GearMeshElement, MeshStiffness, OrderForce};
 use super::machine::{AntiAliasFilter, FaultLocation, Machine};
@@ -124,10 +124,15 @@ impl Model {
             if let (Some(e), Some(name)) = (&fx.extended_fault, &ext_bearing) {
                 if name == &b.name {
                     let samples = ((e.length_m / 0.25e-3).ceil() as usize).max(2) + 1;
-                    let roughness: Vec<f64> = (0..samples)
+                    let profiles = if e.roughness_per_pass { ExtendedFault::ROUGHNESS_PROFILES } else { 1 };
+                    let roughness: Vec<Vec<f64>> = (0..profiles)
                         .map(|_| {
-                            let z: f64 = StandardNormal.sample(&mut rng);
-                            e.roughness_m * z
+                            (0..samples)
+                                .map(|_| {
+                                    let z: f64 = StandardNormal.sample(&mut rng);
+                                    e.roughness_m * z
+                                })
+                                .collect()
                         })
                         .collect();
                     faults.push(BearingFault {

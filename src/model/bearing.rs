@@ -51,8 +51,13 @@ pub enum DepthProfile {
     /// (the ball cannot reach the bottom of a short spall; Sawalhi & Randall 2008).
     Spall { length_m: f64, depth_m: f64, ball_radius_m: f64 },
     /// An extended fault: linear entry and exit ramps, a flat bottom with roughness sampled on
-    /// a table (interpolated linearly), never below zero.
-    Extended { length_m: f64, depth_m: f64, ramp_m: f64, roughness_m: Vec<f64> },
+    /// a table (interpolated linearly), never below zero. `roughness_m` holds one profile, the
+    /// same on every pass of a ball, or several: then each pass of a ball over the fault (see
+    /// [`DepthProfile::depth_on_pass`]) meets one of them, picked by hashing the ball and the
+    /// pass, so the roughness response is random from pass to pass (second-order
+    /// cyclostationary, as Sawalhi, Deshpande & Randall describe an extended fault's signal)
+    /// instead of a fixed pattern repeating at the fault's rotation.
+    Extended { length_m: f64, depth_m: f64, ramp_m: f64, roughness_m: Vec<Vec<f64>> },
 }
 
 impl DepthProfile {
@@ -73,8 +78,22 @@ impl DepthProfile {
         }
     }
 
-    /// Depth (m) at arc position `s` (m) from the leading edge; 0 outside the fault.
+    /// Depth (m) at arc position `s` (m) from the leading edge; 0 outside the fault. An
+    /// extended fault shows its first roughness profile.
     pub fn depth_at(&self, s: f64) -> f64 {
+        self.depth_on_pass(s, 0)
+    }
+
+    /// Whether the depth depends on the pass (an extended fault with several roughness
+    /// profiles).
+    pub fn varies_by_pass(&self) -> bool {
+        matches!(self, DepthProfile::Extended { roughness_m, .. } if roughness_m.len() > 1)
+    }
+
+    /// Depth (m) at arc position `s` (m) on the pass keyed `pass`: an extended fault with
+    /// several roughness profiles uses profile `mix(pass) mod count`; otherwise the pass does
+    /// not matter.
+    pub fn depth_on_pass(&self, s: f64, pass: u64) -> f64 {
         match self {
             DepthProfile::Spall { length_m, depth_m, ball_radius_m } => {
                 if s <= 0.0 || s >= *length_m {
@@ -88,11 +107,16 @@ impl DepthProfile {
                     return 0.0;
                 }
                 let ramp = if *ramp_m > 0.0 { (s / ramp_m).min((length_m - s) / ramp_m).min(1.0) } else { 1.0 };
-                let rough = if roughness_m.len() >= 2 {
-                    let x = s / length_m * (roughness_m.len() - 1) as f64;
-                    let i = (x.floor() as usize).min(roughness_m.len() - 2);
+                let row: &[f64] = match roughness_m.len() {
+                    0 => &[],
+                    1 => &roughness_m[0],
+                    n => &roughness_m[(mix64(pass) % n as u64) as usize],
+                };
+                let rough = if row.len() >= 2 {
+                    let x = s / length_m * (row.len() - 1) as f64;
+                    let i = (x.floor() as usize).min(row.len() - 2);
                     let fr = x - i as f64;
-                    roughness_m[i] * (1.0 - fr) + roughness_m[i + 1] * fr
+                    row[i] * (1.0 - fr) + row[i + 1] * fr
                 } else {
                     0.0
                 };
@@ -100,6 +124,24 @@ impl DepthProfile {
             }
         }
     }
+}
+
+/// SplitMix64's finaliser: a well-mixed 64-bit hash of `x` (Steele, Lea & Flood 2014).
+#[inline]
+fn mix64(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
+
+/// Key of one pass of ball `j` over a race fault: the ball and the whole turns of its angle
+/// `rel` past the fault's leading edge, which stay the same while the ball is over the fault
+/// (the fault spans `[0, length)` of the wrapped angle).
+#[inline]
+fn pass_key(j: usize, rel: f64) -> u64 {
+    let turns = (rel / TAU).floor() as i64;
+    ((j as u64) << 48) ^ (turns as u64)
 }
 
 /// A fault on a race or a ball.
@@ -157,17 +199,21 @@ fn wrap(a: f64) -> f64 {
     a.rem_euclid(TAU)
 }
 
-/// Depth of a race fault under a ball at angle `rel` (rad) past the fault's leading edge, on
-/// a race of rolling radius `r` (m): `profile.depth_at(wrap(rel) · r)`. A fault covers a few
+/// Depth of a race fault under ball `j` at angle `rel` (rad) past the fault's leading edge,
+/// on a race of rolling radius `r` (m): `profile.depth_at(wrap(rel) · r)` (on the ball's
+/// pass, [`pass_key`], for a profile that varies by pass). A fault covers a few
 /// degrees, so most balls are far from it; a cheap reduction (a few ulps of `rel` off the
 /// exact remainder) decides that first, with a 1e-9 rad margin, and only a ball near the
 /// fault pays for the exact `rem_euclid` (a software `fmod`). The result is bit-identical.
 #[inline]
-fn race_depth(profile: &DepthProfile, rel: f64, r: f64) -> f64 {
+fn race_depth(profile: &DepthProfile, rel: f64, r: f64, j: usize) -> f64 {
     const MARGIN_RAD: f64 = 1e-9;
     let approx = reduce_turns(rel);
     if (approx - MARGIN_RAD) * r >= profile.length_m() && approx <= TAU - MARGIN_RAD {
         return 0.0;
+    }
+    if profile.varies_by_pass() {
+        return profile.depth_on_pass(wrap(rel) * r, pass_key(j, rel));
     }
     profile.depth_at(wrap(rel) * r)
 }
@@ -314,11 +360,11 @@ impl BearingElement {
         let mut depth = 0.0;
         for f in &self.faults {
             let d = match f.location {
-                FaultLocation::Outer => race_depth(&f.profile, phi - f.position_rad, self.race_radii_m().0),
+                FaultLocation::Outer => race_depth(&f.profile, phi - f.position_rad, self.race_radii_m().0, j),
                 FaultLocation::Inner => {
                     let r = self.race_radii_m().1;
                     let fault_angle = f.position_rad + shaft_angle;
-                    race_depth(&f.profile, phi - fault_angle, r)
+                    race_depth(&f.profile, phi - fault_angle, r, j)
                 }
                 FaultLocation::Ball => {
                     if j != 0 {
@@ -469,6 +515,55 @@ mod tests {
     }
 
     #[test]
+    fn an_extended_fault_with_profiles_per_pass_meets_a_random_one_on_each_pass() {
+        // 128 roughness profiles of RMS σ: inside one pass of a ball the profile does not
+        // change; from pass to pass (and ball to ball) it is picked at random, so at the
+        // fault's middle the depth over many passes scatters as the profiles do, mean h and
+        // standard deviation σ; with one profile every pass meets the same depth.
+        let (length, depth, sigma, r) = (15e-3, 20e-6, 2e-6, 0.0128);
+        let mut next = uniform(0x5DEECE66D);
+        let rows: Vec<Vec<f64>> = (0..128)
+            .map(|_| {
+                (0..61)
+                    .map(|_| {
+                        // Box–Muller: a standard normal from two uniforms.
+                        let (u1, u2) = (next().max(1e-300), next());
+                        sigma * (-2.0 * u1.ln()).sqrt() * (TAU * u2).cos()
+                    })
+                    .collect()
+            })
+            .collect();
+        let per_pass = DepthProfile::Extended { length_m: length, depth_m: depth, ramp_m: 2e-3, roughness_m: rows.clone() };
+        let fixed = DepthProfile::Extended { length_m: length, depth_m: depth, ramp_m: 2e-3, roughness_m: vec![rows[5].clone()] };
+        let mid = 0.5 * length / r;
+        let mut seen = Vec::new();
+        for j in 0..8 {
+            for turns in -300..300 {
+                let rel = TAU * turns as f64 + mid;
+                let d = race_depth(&per_pass, rel, r, j);
+                // 1 µm further on the same pass: the same profile, so the depth moves only by
+                // the profile's slope over 1 µm (under 8σ per 0.25 mm sample: 0.032σ), where
+                // another profile would differ by about σ√2.
+                let later = race_depth(&per_pass, rel + 1e-6 / r, r, j);
+                assert!((later - d).abs() < 0.05 * sigma, "pass {turns} ball {j}: {d} then {later}");
+                seen.push(d);
+                // One profile: every pass and ball meets the same depth (up to the rounding of
+                // `rel` at large turns).
+                assert_eq!(race_depth(&fixed, rel, r, j).to_bits(), fixed.depth_at(wrap(rel) * r).to_bits());
+                assert!((race_depth(&fixed, rel, r, j) - fixed.depth_at(mid * r)).abs() < 1e-6 * sigma);
+            }
+        }
+        let n = seen.len() as f64;
+        let mean = seen.iter().sum::<f64>() / n;
+        let sd = (seen.iter().map(|d| (d - mean) * (d - mean)).sum::<f64>() / (n - 1.0)).sqrt();
+        assert!((mean - depth).abs() < 0.25 * sigma, "mean {mean}");
+        assert!((sd / sigma - 1.0).abs() < 0.25, "sd {sd} for σ {sigma}");
+        // Different passes meet different profiles: most consecutive passes differ.
+        let changes = seen.windows(2).filter(|w| w[0] != w[1]).count();
+        assert!(changes as f64 > 0.95 * (n - 1.0), "{changes} changes in {n} passes");
+    }
+
+    #[test]
     fn spall_profile_is_limited_by_ball_curvature() {
         let p = DepthProfile::Spall { length_m: 1e-3, depth_m: 1e-3, ball_radius_m: 4e-3 };
         // At mid-spall the drop is r − √(r² − (L/2)²) = 4 − √(16 − 0.25) mm ≈ 31.4 µm.
@@ -488,7 +583,7 @@ mod tests {
         let r = 0.0156;
         let profiles = [
             DepthProfile::Spall { length_m: 0.178e-3, depth_m: 1e-4, ball_radius_m: 3.97e-3 },
-            DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![0.0, 2e-6, -1e-6, 3e-6] },
+            DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![vec![0.0, 2e-6, -1e-6, 3e-6]] },
         ];
         let mut next = uniform(0x9E3779B97F4A7C15);
         for p in &profiles {
@@ -499,7 +594,7 @@ mod tests {
                 for d in specials.into_iter().chain((0..2000).map(|_| (next() - 0.5) * 2.0 * TAU)) {
                     let rel = base + d;
                     let exact = p.depth_at(wrap(rel) * r);
-                    assert_eq!(race_depth(p, rel, r).to_bits(), exact.to_bits(), "rel {rel}");
+                    assert_eq!(race_depth(p, rel, r, 0).to_bits(), exact.to_bits(), "rel {rel}");
                 }
             }
         }
@@ -514,7 +609,7 @@ mod tests {
         // most balls, or they save nothing.
         let mut next = uniform(0x2545F4914F6CDD1D);
         let spall = DepthProfile::Spall { length_m: 0.533e-3, depth_m: 1e-4, ball_radius_m: 3.97e-3 };
-        let extended = DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![0.0, 2e-6, -1e-6, 3e-6] };
+        let extended = DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![vec![0.0, 2e-6, -1e-6, 3e-6]] };
         let sets = [
             vec![BearingFault { location: FaultLocation::Inner, profile: spall.clone(), position_rad: 0.3 }],
             vec![BearingFault { location: FaultLocation::Outer, profile: spall.clone(), position_rad: -1.0 }],

@@ -270,12 +270,22 @@ pub struct ExtendedFault {
     pub ramp_m: f64,
     /// RMS roughness of the fault bottom, m. Default 2 µm.
     pub roughness_m: f64,
+    /// Whether each pass of a ball over the fault meets another roughness profile (one of
+    /// [`ExtendedFault::ROUGHNESS_PROFILES`] drawn from the seed, picked per ball and pass),
+    /// so the roughness response is random from pass to pass, as a real ball's contact path
+    /// and slip make it; false: one profile, met the same on every pass. Default true.
+    pub roughness_per_pass: bool,
     /// Position, degrees (as for a localised fault).
     pub position_deg: f64,
 }
+impl ExtendedFault {
+    /// Roughness profiles drawn when they vary by pass.
+    pub const ROUGHNESS_PROFILES: usize = 128;
+}
+
 impl Default for ExtendedFault {
     fn default() -> Self {
-        Self { bearing: None, location: super::machine::FaultLocation::Inner, length_m: 0.015, depth_m: 20e-6, ramp_m: 2e-3, roughness_m: 2e-6, position_deg: 0.0 }
+        Self { bearing: None, location: super::machine::FaultLocation::Inner, length_m: 0.015, depth_m: 20e-6, ramp_m: 2e-3, roughness_m: 2e-6, roughness_per_pass: true, position_deg: 0.0 }
     }
 }
 
