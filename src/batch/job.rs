@@ -180,48 +180,50 @@ pub struct LoopSpec {
     /// Effects the search may try. Default: every applicable effect the model lacks.
     pub candidates: Vec<String>,
     /// Model time simulated per evaluation, s (0.2–60, `compare::FIT_DURATION_RANGE_S`).
-    /// Default 1.5.
+    /// Default: the library's.
     pub fit_duration_s: f64,
     /// When the calibration pins a parameter, also start the trials from the uncalibrated
-    /// values (`LoopOptions::unbend_pinned`). Default true.
+    /// values (`LoopOptions::unbend_pinned`). Default: the library's.
     pub unbend_pinned: bool,
     /// Also start every trial from the uncalibrated values, pinned or not
-    /// (`LoopOptions::uncalibrated_start`, experimental). Default false.
+    /// (`LoopOptions::uncalibrated_start`, experimental). Default: the library's.
     pub uncalibrated_start: bool,
     /// A stuck round with no kept replacement also re-fits each applied effect from the
-    /// uncalibrated values (`LoopOptions::refit_when_stuck`). Default true.
+    /// uncalibrated values (`LoopOptions::refit_when_stuck`). Default: the library's.
     pub refit_when_stuck: bool,
-    /// The experimental near-floor rule (`LoopOptions::near_floor_rule`). Default false.
+    /// The experimental near-floor rule (`LoopOptions::near_floor_rule`). Default: the
+    /// library's.
     pub near_floor_rule: bool,
     /// The plain trial scans a periodic force's amplitude on a grid
-    /// (`LoopOptions::scan_force_amplitudes`). Default: the library's (true, since session 40).
+    /// (`LoopOptions::scan_force_amplitudes`). Default: the library's.
     pub scan_force_amplitudes: bool,
     /// A stuck diagnosis whose calibration pins nothing is done again unbent
-    /// (`LoopOptions::unbend_when_stuck`). Default true (since session 31).
+    /// (`LoopOptions::unbend_when_stuck`). Default: the library's.
     pub unbend_when_stuck: bool,
     /// A periodic force's amplitude is fitted with twice the line-search evaluations
-    /// (`LoopOptions::fine_forces`). Default: the library's (true, since session 40).
+    /// (`LoopOptions::fine_forces`). Default: the library's.
     pub fine_forces: bool,
     /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`,
-    /// experimental), 0–8. Default: the library's (0, off).
+    /// experimental), 0–8. Default: the library's.
     pub polish_sweeps: usize,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
-    /// (`CompareOptions::path_correction_bands`), 0–64. Default 0 (off).
+    /// (`CompareOptions::path_correction_bands`), 0–64 (0 = off). Default: the library's.
     pub path_correction_bands: usize,
     /// Every SCF α-slice normalised by the measured SCF over all compared slices
-    /// (`CompareOptions::scf_one_normaliser`, experimental). Default false: each by its own range.
+    /// (`CompareOptions::scf_one_normaliser`, experimental); off, each by its own range.
+    /// Default: the library's.
     pub scf_one_normaliser: bool,
-    /// The significance test (`LoopOptions::decision_rule`): `"floor_margin"` (default) or
-    /// `"scatter"` (experimental).
+    /// The significance test (`LoopOptions::decision_rule`): `"floor_margin"` or `"scatter"`
+    /// (experimental). Default: the library's.
     pub decision_rule: crate::compare::DecisionRule,
     /// The floor margin of `"floor_margin"` (`LoopOptions::floor_margin`), ≥ 0. Default: the
-    /// library's (0.5).
+    /// library's.
     pub floor_margin: f64,
     /// Model realisations averaged per evaluation (`LoopOptions::realisations`), 1–16.
     /// Default: the library's.
     pub realisations: usize,
     /// Realisations of the second look when a random effect leads a one-realisation search
-    /// (`LoopOptions::random_effect_realisations`), 0 (off) to 16; default: the library's (4).
+    /// (`LoopOptions::random_effect_realisations`), 0 (off) to 16. Default: the library's.
     pub random_effect_realisations: usize,
 }
 
@@ -527,6 +529,38 @@ mod tests {
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
         assert_eq!(spec.options(&chain).unwrap(), crate::compare::LoopOptions::default());
         assert_eq!(spec.rounds, 3);
+    }
+
+    #[test]
+    fn the_readmes_model_loop_sample_states_the_defaults_a_job_gets() {
+        // README "Closing the loop headless" lists the keys of `[model_loop]` with their
+        // defaults in comments ("default 4", "default true since session 31"); the doc
+        // comments here say "the library's". Each stated default, set explicitly, must give
+        // the same spec as leaving the key out, so the README cannot drift from the library.
+        let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+        let start = readme.find("```toml\n[model_loop]\n").expect("README has the [model_loop] sample");
+        let block = &readme[start + 8..];
+        let block = &block[..block.find("```").unwrap()];
+        let default = serde_json::to_value(LoopSpec::default()).unwrap();
+        let mut checked = Vec::new();
+        for line in block.lines().skip(1) {
+            let line = line.trim_start_matches('#').trim();
+            let Some((key, rest)) = line.split_once('=') else { continue };
+            let Some(at) = rest.find("default ") else { continue };
+            let stated: String = rest[at + 8..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '.').collect();
+            if !(stated == "true" || stated == "false" || stated.starts_with(|c: char| c.is_ascii_digit())) {
+                continue;
+            }
+            let key = key.trim();
+            let set: LoopSpec = toml::from_str(&format!("{key} = {stated}")).unwrap_or_else(|e| panic!("README `{key} = {stated}`: {e}"));
+            assert_eq!(serde_json::to_value(&set).unwrap(), default, "README says `{key}` defaults to {stated}");
+            checked.push(key.to_string());
+        }
+        // Every search option the sample names with a value: a README line dropping its
+        // "default" would otherwise pass silently.
+        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "scan_force_amplitudes", "fine_forces", "polish_sweeps"] {
+            assert!(checked.iter().any(|k| k == key), "README's [model_loop] sample states no default for `{key}`: {checked:?}");
+        }
     }
 
     #[test]
