@@ -79,15 +79,9 @@ impl DepthProfile {
     }
 
     /// Depth (m) at arc position `s` (m) from the leading edge; 0 outside the fault. An
-    /// extended fault shows its first roughness profile.
+    /// extended fault with several roughness profiles shows the one of pass key 0.
     pub fn depth_at(&self, s: f64) -> f64 {
         self.depth_on_pass(s, 0)
-    }
-
-    /// Whether the depth depends on the pass (an extended fault with several roughness
-    /// profiles).
-    pub fn varies_by_pass(&self) -> bool {
-        matches!(self, DepthProfile::Extended { roughness_m, .. } if roughness_m.len() > 1)
     }
 
     /// Depth (m) at arc position `s` (m) on the pass keyed `pass`: an extended fault with
@@ -200,8 +194,8 @@ fn wrap(a: f64) -> f64 {
 }
 
 /// Depth of a race fault under ball `j` at angle `rel` (rad) past the fault's leading edge,
-/// on a race of rolling radius `r` (m): `profile.depth_at(wrap(rel) · r)` (on the ball's
-/// pass, [`pass_key`], for a profile that varies by pass). A fault covers a few
+/// on a race of rolling radius `r` (m): `profile.depth_on_pass(wrap(rel) · r, pass_key(j, rel))`
+/// (the pass matters only to an extended fault with several roughness profiles). A fault covers a few
 /// degrees, so most balls are far from it; a cheap reduction (a few ulps of `rel` off the
 /// exact remainder) decides that first, with a 1e-9 rad margin, and only a ball near the
 /// fault pays for the exact `rem_euclid` (a software `fmod`). The result is bit-identical.
@@ -212,10 +206,7 @@ fn race_depth(profile: &DepthProfile, rel: f64, r: f64, j: usize) -> f64 {
     if (approx - MARGIN_RAD) * r >= profile.length_m() && approx <= TAU - MARGIN_RAD {
         return 0.0;
     }
-    if profile.varies_by_pass() {
-        return profile.depth_on_pass(wrap(rel) * r, pass_key(j, rel));
-    }
-    profile.depth_at(wrap(rel) * r)
+    profile.depth_on_pass(wrap(rel) * r, pass_key(j, rel))
 }
 
 /// `sin_cos(2π / balls)`, the rotation between neighbouring balls, tabled once for the ball
@@ -521,18 +512,7 @@ mod tests {
         // fault's middle the depth over many passes scatters as the profiles do, mean h and
         // standard deviation σ; with one profile every pass meets the same depth.
         let (length, depth, sigma, r) = (15e-3, 20e-6, 2e-6, 0.0128);
-        let mut next = uniform(0x5DEECE66D);
-        let rows: Vec<Vec<f64>> = (0..128)
-            .map(|_| {
-                (0..61)
-                    .map(|_| {
-                        // Box–Muller: a standard normal from two uniforms.
-                        let (u1, u2) = (next().max(1e-300), next());
-                        sigma * (-2.0 * u1.ln()).sqrt() * (TAU * u2).cos()
-                    })
-                    .collect()
-            })
-            .collect();
+        let rows: Vec<Vec<f64>> = (0..128).map(|i| crate::signal::synth::white_noise(61, sigma, 0x5DEECE66D + i)).collect();
         let per_pass = DepthProfile::Extended { length_m: length, depth_m: depth, ramp_m: 2e-3, roughness_m: rows.clone() };
         let fixed = DepthProfile::Extended { length_m: length, depth_m: depth, ramp_m: 2e-3, roughness_m: vec![rows[5].clone()] };
         let mid = 0.5 * length / r;
