@@ -298,6 +298,11 @@ struct SearchArgs {
     /// (docs/loop-notebook.md "A calibration polish"). 0 (off, the default) to 8.
     #[arg(long, value_name = "N", default_value_t = twinscope::compare::LoopOptions::default().polish_sweeps as u8, value_parser = clap::value_parser!(u8).range(0..=twinscope::compare::MAX_POLISH_SWEEPS as i64))]
     polish_sweeps: u8,
+    /// Experimental: polish only a diagnosis's baselines (the calibration, the casing trial
+    /// that re-does it), not the second start of an unbent trial, which has a start from the
+    /// polished calibration besides (docs/loop-notebook.md "A polish of the baselines only").
+    #[arg(long)]
+    no_polish_second_starts: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
     /// path the model does not describe. Spectral-shape effects (casing modes, sensor
@@ -369,7 +374,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: !self.no_polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o

@@ -786,6 +786,33 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
     );
 }
 
+/// `LoopOptions::polish_second_starts` (experimental): off, the polish leaves an unbent trial's
+/// second start (from the uncalibrated values) alone and polishes the calibration only. On
+/// the stuck load-zone case unbent (see above), the two searches differ by exactly the polish
+/// sweeps of that second start, each of its parameters one local line search per sweep, and
+/// each expects exactly the evaluations it makes.
+#[test]
+fn without_polishing_second_starts_only_the_unbent_start_goes_unpolished() {
+    use twinscope::compare::calibrate::fit_evaluations;
+    let (model_m, measured, opts) = hidden_load_zone_case(EffectKind::Unbalance);
+    let every = LoopOptions { unbend_when_stuck: true, polish_sweeps: 2, ..opts };
+    let baselines = LoopOptions { polish_second_starts: false, ..every.clone() };
+    let (a, calls_a, expected_a) = diagnose_counting(&model_m, &measured, &every);
+    let (b, calls_b, expected_b) = diagnose_counting(&model_m, &measured, &baselines);
+    assert!(a.unbent && b.unbent, "both searches unbent when stuck: {} / {}", a.verdict, b.verdict);
+    assert_eq!((calls_a, calls_b), (expected_a, expected_b));
+    // The calibration is polished in both: the same calibrated model.
+    assert_eq!(a.calibration.objective_after, b.calibration.objective_after);
+    let mut t = model_m.clone();
+    t.effects.enable(EffectKind::Unbalance);
+    let ps = twinscope::compare::diagnose::recalibration_parameters(EffectKind::Unbalance, &t, &every);
+    let second_start = |o: &LoopOptions| fit_evaluations(&t, &ps, &[Param::UnbalanceKgM], 1, o);
+    let fitted = ps.iter().filter(|p| p.get(&t).is_some()).count();
+    assert!(fitted >= 4, "{ps:?}");
+    assert_eq!(second_start(&every) - second_start(&LoopOptions { polish_sweeps: 0, ..every.clone() }), 2 * fitted * 3);
+    assert_eq!(calls_a - calls_b, 2 * fitted * 3, "the polish of the unbent start ({fitted} parameters, 2 sweeps, 3 evaluations each)");
+}
+
 /// The evaluations of the slip trial from the uncalibrated values on `model_m`: its slip
 /// scanned, then one sweep with every calibration parameter (an unbent search's second start).
 fn slip_unbent_start_evaluations(model_m: &model::Machine, opts: &LoopOptions) -> usize {

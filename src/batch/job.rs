@@ -206,6 +206,9 @@ pub struct LoopSpec {
     /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`,
     /// experimental), 0–8. Default: the library's.
     pub polish_sweeps: usize,
+    /// The polish also acts on the second start of an unbent trial
+    /// (`LoopOptions::polish_second_starts`, experimental). Default: the library's.
+    pub polish_second_starts: bool,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64 (0 = off). Default: the library's.
     pub path_correction_bands: usize,
@@ -249,6 +252,7 @@ impl Default for LoopSpec {
             unbend_when_stuck: o.unbend_when_stuck,
             fine_forces: o.fine_forces,
             polish_sweeps: o.polish_sweeps,
+            polish_second_starts: o.polish_second_starts,
             path_correction_bands: o.compare.path_correction_bands,
             scf_one_normaliser: o.compare.scf_one_normaliser,
             decision_rule: o.decision_rule,
@@ -272,7 +276,7 @@ impl LoopSpec {
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
         crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
@@ -558,7 +562,7 @@ mod tests {
         }
         // Every search option the sample names with a value: a README line dropping its
         // "default" would otherwise pass silently.
-        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "scan_force_amplitudes", "fine_forces", "polish_sweeps"] {
+        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts"] {
             assert!(checked.iter().any(|k| k == key), "README's [model_loop] sample states no default for `{key}`: {checked:?}");
         }
     }
@@ -601,6 +605,10 @@ mod tests {
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 9").unwrap();
         let e = spec.options(&chain).unwrap_err();
         assert!(e.contains("polish_sweeps") && e.contains("9"), "{e}");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4").unwrap();
+        assert!(spec.options(&chain).unwrap().polish_second_starts, "on by default, as in the library");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4\npolish_second_starts = false").unwrap();
+        assert!(!spec.options(&chain).unwrap().polish_second_starts);
     }
 
     #[test]

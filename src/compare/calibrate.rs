@@ -419,6 +419,15 @@ pub struct LoopOptions {
     /// [`MAX_POLISH_SWEEPS`]. Default: 0 (experimental; docs/loop-notebook.md "A calibration
     /// polish").
     pub polish_sweeps: usize,
+    /// Whether the polish ([`LoopOptions::polish_sweeps`]) also acts on the second start of an
+    /// unbent trial (from the uncalibrated values, beside the plain trial from the calibrated
+    /// model, see [`LoopOptions::unbend_pinned`]). Off, only the fits that are a diagnosis's
+    /// baseline or a trial's only start are polished (the calibration, the casing trial
+    /// that re-does it): on a real record, where the trials are unbent, the polish of every
+    /// second start is most of its cost (105: 37 s without the polish, 62–73 s with four
+    /// sweeps). Default: on (experimental; docs/loop-notebook.md "A polish of the baselines
+    /// only").
+    pub polish_second_starts: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
     pub decision_rule: DecisionRule,
@@ -531,7 +540,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, fine_forces: true, polish_sweeps: 0, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, fine_forces: true, polish_sweeps: 0, polish_second_starts: true, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -782,6 +782,9 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     // The second start of every plain trial: unbending's (with a calibration sweep), or the
     // lighter one of `uncalibrated_start`, which unbending supersedes.
     let scanned_start = opts.uncalibrated_start && !unbent;
+    // An unbent second start is polished only with `polish_second_starts`: its plain trial
+    // starts from the (polished) calibration, so the trial keeps a polished start either way.
+    let second_start_opts = LoopOptions { polish_sweeps: if opts.polish_second_starts { opts.polish_sweeps } else { 0 }, ..opts.clone() };
     if unbent || scanned_start {
         let extra: usize = candidates
             .iter()
@@ -789,7 +792,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             .map(|&k| {
                 let (t, ps, scan) = unbent_start(k);
                 if unbent {
-                    fit_evaluations(&t, &ps, &scan, 1, opts)
+                    fit_evaluations(&t, &ps, &scan, 1, &second_start_opts)
                 } else {
                     fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
                 }
@@ -821,11 +824,12 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let outcomes: Vec<(EffectKind, TrialOutcome, TrialOutcome)> = candidates
         .par_iter()
         .map(|&k| {
-            // From the uncalibrated values, the effect scanned, then one calibration sweep.
-            let from_uncalibrated = || -> TrialOutcome {
+            // From the uncalibrated values, the effect scanned, then one calibration sweep
+            // (with `fit_opts`' polish).
+            let from_uncalibrated_with = |fit_opts: &LoopOptions| -> TrialOutcome {
                 let (t, ps, scan) = unbent_start(k);
                 t.validate().map_err(|e| e.to_string())?;
-                let (fm, f) = fit_scanning(&t, measured, &ps, &scan, 1, opts, progress).map_err(|e| e.to_string())?;
+                let (fm, f) = fit_scanning(&t, measured, &ps, &scan, 1, fit_opts, progress).map_err(|e| e.to_string())?;
                 let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
                 Ok((EffectTrial { from_uncalibrated: true, ..make_trial(k, &fm, &f, &released) }, fm))
             };
@@ -860,7 +864,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             let plain = || -> TrialOutcome {
                 match cached_plain.as_ref().and_then(|v| v.iter().find(|(e, _)| *e == k)) {
                     Some((_, o)) => o.clone(),
-                    None if recalibrates(k) => from_uncalibrated(),
+                    None if recalibrates(k) => from_uncalibrated_with(opts),
                     None => from_calibrated(),
                 }
             };
@@ -870,7 +874,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             } else if unbent {
                 // Both starts; the better fit is the trial (a start from the uncalibrated values
                 // with one sweep can end worse than the bent calibration's).
-                let (a, b) = rayon::join(plain, from_uncalibrated);
+                let (a, b) = rayon::join(plain, || from_uncalibrated_with(&second_start_opts));
                 (better_start((a.clone(), b)), a)
             } else if scanned_start {
                 let (a, b) = rayon::join(plain, from_uncalibrated_scanned);
