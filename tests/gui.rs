@@ -495,6 +495,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     assert_eq!(o.polish_sweeps, 0);
     set(&mut h, "calibration polish (experimental)", 4.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).polish_sweeps, 4);
+    // Whether the polish acts on an unbent trial's second start: on until unticked.
+    assert!(o.polish_second_starts);
+    h.get_by_label("polish second starts too: the polish also acts on an unbent trial's start from the uncalibrated values (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert!(!h.state().settings.loop_options(Default::default()).polish_second_starts);
     // Beyond the range: the editor clamps to the library's limit.
     set(&mut h, "model realisations", 99.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);

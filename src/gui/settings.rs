@@ -71,6 +71,9 @@ pub struct Settings {
     /// Model loop: sweeps of local line searches after every full-range fit
     /// (`LoopOptions::polish_sweeps`, experimental; 0 = off).
     pub loop_polish_sweeps: usize,
+    /// Model loop: the polish also acts on an unbent trial's second start
+    /// (`LoopOptions::polish_second_starts`, experimental; on by default).
+    pub loop_polish_second_starts: bool,
 }
 
 impl Default for Settings {
@@ -101,6 +104,7 @@ impl Default for Settings {
             loop_unbend_when_stuck: LoopOptions::default().unbend_when_stuck,
             loop_fine_forces: LoopOptions::default().fine_forces,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
+            loop_polish_second_starts: LoopOptions::default().polish_second_starts,
         }
     }
 }
@@ -165,6 +169,7 @@ impl Settings {
             unbend_when_stuck: self.loop_unbend_when_stuck,
             fine_forces: self.loop_fine_forces,
             polish_sweeps: self.loop_polish_sweeps,
+            polish_second_starts: self.loop_polish_second_starts,
             ..Default::default()
         }
     }

@@ -166,6 +166,8 @@ impl ModelLoopView {
                 .on_hover_text("a periodic force's objective has a narrow minimum among dips decades away: a line search alone can close on the wrong one for a strong force (three times the evaluations for those parameters)");
             ui.checkbox(&mut s.loop_fine_forces, "fine forces: an unbalance, misalignment or belt force gets twice the line-search evaluations")
                 .on_hover_text("the objective's minimum in a force is about 1 % wide and a 9-evaluation line search over its four decades ends within about ±18 %: a force left a few percent off leaves error another effect can stand in for");
+            ui.add_enabled(s.loop_polish_sweeps > 0, egui::Checkbox::new(&mut s.loop_polish_second_starts, "polish second starts too: the polish also acts on an unbent trial's start from the uncalibrated values (experimental)"))
+                .on_hover_text("off, only the calibration and the casing trial that re-does it are polished; an unbent trial keeps a polished start, the one from the calibrated model. On a real record every trial is unbent, and polishing every second start is most of the polish's cost");
             ui.checkbox(&mut s.loop_unbend_when_stuck, "unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values")
                 .on_hover_text("a calibration can bend the model to do without what is missing without reaching an edge of any range; this costs a second search, in stuck rounds only");
             let mut all = s.loop_candidates.is_empty();
