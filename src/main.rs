@@ -291,7 +291,8 @@ struct SearchArgs {
     /// run unchanged.
     #[arg(long, hide = true, conflicts_with = "no_fine_forces")]
     fine_forces: bool,
-    /// Experimental: after every full-range fit (the calibration, a trial that re-does it),
+    /// Experimental: after every full-range fit (the calibration, a trial that re-does it, an
+    /// unbent trial's second start unless --no-polish-second-starts),
     /// N sweeps of local line searches on its parameters, the bracket ± 8 % of each range
     /// halved every sweep: coordinate descent over the full ranges can stop short of the
     /// optimum of coupled parameters (resonance and damping), which reads as something missing

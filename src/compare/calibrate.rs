@@ -408,7 +408,8 @@ pub struct LoopOptions {
     /// default?"; the mechanism: "Fine forces").
     pub fine_forces: bool,
     /// Sweeps of a polish after every full-range fit (the calibration, a trial that re-does
-    /// the calibration with its effect, a start from the uncalibrated values): each fitted
+    /// the calibration with its effect, a start from the uncalibrated values unless
+    /// [`LoopOptions::polish_second_starts`] is off): each fitted
     /// parameter in turn gets a local golden section (the evaluations of a refinement) in a
     /// bracket of ± [`POLISH_HALF_WIDTH`] of its search range around its value, the bracket
     /// halved every sweep. Resonance frequency and damping are coupled, and two sweeps of
@@ -424,8 +425,9 @@ pub struct LoopOptions {
     /// model, see [`LoopOptions::unbend_pinned`]). Off, only the fits that are a diagnosis's
     /// baseline or a trial's only start are polished (the calibration, the casing trial
     /// that re-does it): on a real record, where the trials are unbent, the polish of every
-    /// second start is most of its cost (105: 37 s without the polish, 62–73 s with four
-    /// sweeps). Default: on (experimental; docs/loop-notebook.md "A polish of the baselines
+    /// second start is most of its cost (105 with one SCF normaliser and margin 0.3: 36 s
+    /// without the polish, 62–73 s with four sweeps, 35 s with four sweeps and this off;
+    /// session 43 measured the default at 27 s in the same hour). Default: on (experimental; docs/loop-notebook.md "A polish of the baselines
     /// only").
     pub polish_second_starts: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
