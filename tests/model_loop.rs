@@ -795,7 +795,7 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
 fn without_polishing_second_starts_only_the_unbent_start_goes_unpolished() {
     use twinscope::compare::calibrate::fit_evaluations;
     let (model_m, measured, opts) = hidden_load_zone_case(EffectKind::Unbalance);
-    let every = LoopOptions { unbend_when_stuck: true, polish_sweeps: 2, ..opts };
+    let every = LoopOptions { unbend_when_stuck: true, polish_sweeps: 2, polish_second_starts: true, ..opts };
     let baselines = LoopOptions { polish_second_starts: false, ..every.clone() };
     let (a, calls_a, expected_a) = diagnose_counting(&model_m, &measured, &every);
     let (b, calls_b, expected_b) = diagnose_counting(&model_m, &measured, &baselines);
