@@ -773,10 +773,7 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
     // The second search: the plain one again without its calibrated start and its plain
     // trial (both taken over from the first), plus the unbalance trial from the uncalibrated
     // values (its force scanned, then one sweep with every calibration parameter).
-    let mut t = model_m.clone();
-    t.effects.enable(EffectKind::Unbalance);
-    let ps = twinscope::compare::diagnose::recalibration_parameters(EffectKind::Unbalance, &t, &opts);
-    let unbent_start = twinscope::compare::calibrate::fit_evaluations(&t, &ps, &[Param::UnbalanceKgM], 1, &opts);
+    let unbent_start = unbent_start_evaluations(&model_m, EffectKind::Unbalance, &opts);
     let calibration = twinscope::compare::diagnose::calibration_evaluations(&model_m, &opts);
     let plain_trial = twinscope::compare::diagnose::plain_trial_evaluations(&model_m, EffectKind::Unbalance, &opts);
     assert_eq!(
@@ -793,7 +790,6 @@ fn a_stuck_diagnosis_is_done_again_unbent_and_expects_every_evaluation() {
 /// each expects exactly the evaluations it makes.
 #[test]
 fn without_polishing_second_starts_only_the_unbent_start_goes_unpolished() {
-    use twinscope::compare::calibrate::fit_evaluations;
     let (model_m, measured, opts) = hidden_load_zone_case(EffectKind::Unbalance);
     let every = LoopOptions { unbend_when_stuck: true, polish_sweeps: 2, polish_second_starts: true, ..opts };
     let baselines = LoopOptions { polish_second_starts: false, ..every.clone() };
@@ -806,20 +802,22 @@ fn without_polishing_second_starts_only_the_unbent_start_goes_unpolished() {
     let mut t = model_m.clone();
     t.effects.enable(EffectKind::Unbalance);
     let ps = twinscope::compare::diagnose::recalibration_parameters(EffectKind::Unbalance, &t, &every);
-    let second_start = |o: &LoopOptions| fit_evaluations(&t, &ps, &[Param::UnbalanceKgM], 1, o);
+    let second_start = |o: &LoopOptions| unbent_start_evaluations(&model_m, EffectKind::Unbalance, o);
     let fitted = ps.iter().filter(|p| p.get(&t).is_some()).count();
     assert!(fitted >= 4, "{ps:?}");
     assert_eq!(second_start(&every) - second_start(&LoopOptions { polish_sweeps: 0, ..every.clone() }), 2 * fitted * 3);
     assert_eq!(calls_a - calls_b, 2 * fitted * 3, "the polish of the unbent start ({fitted} parameters, 2 sweeps, 3 evaluations each)");
 }
 
-/// The evaluations of the slip trial from the uncalibrated values on `model_m`: its slip
-/// scanned, then one sweep with every calibration parameter (an unbent search's second start).
-fn slip_unbent_start_evaluations(model_m: &model::Machine, opts: &LoopOptions) -> usize {
+/// The evaluations of effect `k`'s trial from the uncalibrated values on `model_m`: its main
+/// parameter scanned, then one sweep with every calibration parameter (an unbent search's
+/// second start), with `opts`' polish.
+fn unbent_start_evaluations(model_m: &model::Machine, k: EffectKind, opts: &LoopOptions) -> usize {
     use twinscope::compare::{calibrate, diagnose};
     let mut t = model_m.clone();
-    t.effects.enable(EffectKind::Slip);
-    calibrate::fit_evaluations(&t, &diagnose::recalibration_parameters(EffectKind::Slip, &t, opts), &[Param::SlipPercent], 1, opts)
+    t.effects.enable(k);
+    let scan: Vec<Param> = Param::main_of_effect(k).into_iter().collect();
+    calibrate::fit_evaluations(&t, &diagnose::recalibration_parameters(k, &t, opts), &scan, 1, opts)
 }
 
 /// `LoopOptions::unbend_when_stuck` before the second look (session 31): a hidden load zone
@@ -858,7 +856,7 @@ fn a_stuck_search_is_unbent_before_its_second_look() {
     // and the plain slip trial it takes over, plus the slip trial from the uncalibrated values;
     // the search with two realisations (its own calibrated start and plain trial) plus the
     // same second start with two.
-    let unbent_start = |o: &LoopOptions| slip_unbent_start_evaluations(&model_m, o);
+    let unbent_start = |o: &LoopOptions| unbent_start_evaluations(&model_m, EffectKind::Slip, o);
     let calibration = diagnose::calibration_evaluations(&model_m, &opts);
     let plain_trial = diagnose::plain_trial_evaluations(&model_m, EffectKind::Slip, &opts);
     assert_eq!(
@@ -903,7 +901,7 @@ fn a_stuck_second_look_after_a_search_that_was_not_stuck_is_unbent_both_times() 
     // The count: both plain searches (one and two realisations), then both again unbent, each
     // without its calibrated start and plain trial (taken over) but with the slip trial from
     // the uncalibrated values.
-    let unbent_start = |o: &LoopOptions| slip_unbent_start_evaluations(&model_m, o);
+    let unbent_start = |o: &LoopOptions| unbent_start_evaluations(&model_m, EffectKind::Slip, o);
     let taken_over = |o: &LoopOptions| diagnose::calibration_evaluations(&model_m, o) + diagnose::plain_trial_evaluations(&model_m, EffectKind::Slip, o);
     assert_eq!(
         calls,

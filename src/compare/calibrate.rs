@@ -427,8 +427,8 @@ pub struct LoopOptions {
     /// that re-does it): on a real record, where the trials are unbent, the polish of every
     /// second start is most of its cost (105 with one SCF normaliser and margin 0.3: 36 s
     /// without the polish, 62–73 s with four sweeps, 35 s with four sweeps and this off;
-    /// session 43 measured the default at 27 s in the same hour). Default: on (experimental; docs/loop-notebook.md "A polish of the baselines
-    /// only").
+    /// session 43 measured the default at 27 s in the same hour). Default: on
+    /// (experimental; docs/loop-notebook.md "A polish of the baselines only").
     pub polish_second_starts: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
