@@ -291,18 +291,23 @@ struct SearchArgs {
     /// run unchanged.
     #[arg(long, hide = true, conflicts_with = "no_fine_forces")]
     fine_forces: bool,
-    /// Experimental: after every full-range fit (the calibration, a trial that re-does it, an
-    /// unbent trial's second start unless --no-polish-second-starts),
-    /// N sweeps of local line searches on its parameters, the bracket ± 8 % of each range
-    /// halved every sweep: coordinate descent over the full ranges can stop short of the
-    /// optimum of coupled parameters (resonance and damping), which reads as something missing
-    /// (docs/loop-notebook.md "A calibration polish"). 0 (off, the default) to 8.
+    /// After every full-range fit (the calibration, a trial that re-does it, and with
+    /// --polish-second-starts an unbent trial's second start), N sweeps of local line searches
+    /// on its parameters, the bracket ± 8 % of each range halved every sweep: coordinate
+    /// descent over the full ranges can stop short of the optimum of coupled parameters
+    /// (resonance and damping), which reads as something missing (docs/loop-notebook.md "A
+    /// calibration polish"). 0 (off) to 8; 4 by default since session 44.
     #[arg(long, value_name = "N", default_value_t = twinscope::compare::LoopOptions::default().polish_sweeps as u8, value_parser = clap::value_parser!(u8).range(0..=twinscope::compare::MAX_POLISH_SWEEPS as i64))]
     polish_sweeps: u8,
-    /// Experimental: polish only a diagnosis's baselines (the calibration, the casing trial
-    /// that re-does it), not the second start of an unbent trial, which has a start from the
-    /// polished calibration besides (docs/loop-notebook.md "A polish of the baselines only").
+    /// Polish also the second start of an unbent trial (from the uncalibrated values), not
+    /// only a diagnosis's baselines (the calibration, the casing trial that re-does it): the
+    /// default before session 44; on a real record about twice the cost (docs/loop-notebook.md
+    /// "A polish of the baselines only").
     #[arg(long)]
+    polish_second_starts: bool,
+    /// The default since session 44 (see --polish-second-starts); accepted so that older
+    /// commands run unchanged.
+    #[arg(long, hide = true, conflicts_with = "polish_second_starts")]
     no_polish_second_starts: bool,
     /// Correct the model's transfer path with a smooth gain curve on N log-spaced PSD bands,
     /// fitted to every evaluation before comparing (0 = off): for real records whose sensor
@@ -310,13 +315,19 @@ struct SearchArgs {
     /// response) then compete only on what N bands cannot absorb.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_PATH_CORRECTION_BANDS as i64))]
     path_correction: u16,
-    /// Normalise every SCF α-slice by the measured SCF over all compared slices instead of by
-    /// its own range (experimental, off by default; docs/loop-notebook.md "One normaliser for
-    /// the SCF slices").
+    /// Normalise every SCF α-slice's NRMSE by that slice's own measured range, not by the
+    /// measured SCF over all compared slices (the loop's default since session 44; as
+    /// `twinscope compare` does): the default before session 44, where a slice holding little
+    /// but estimator noise is scaled up to the range of that noise (docs/loop-notebook.md "One
+    /// normaliser for the SCF slices").
     #[arg(long)]
+    scf_slice_normalisers: bool,
+    /// The default since session 44 (see --scf-slice-normalisers); accepted so that older
+    /// commands run unchanged.
+    #[arg(long, hide = true, conflicts_with = "scf_slice_normalisers")]
     scf_one_normaliser: bool,
-    /// The significance test: `floor_margin` (objective at least 1.5 × its seed floor with one
-    /// realisation, 1.87 × with several; the default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
+    /// The significance test: `floor_margin` (objective at least 1.3 × its seed floor with one
+    /// realisation, 1.54 × with several, with the default margin; the default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
     /// must account for the share: switching it off again in the trial's fit must cost it;
     /// experimental, not adopted: it made a false claim on a fresh pair the default does not).
     #[arg(long, value_name = "RULE", default_value = "floor_margin", value_parser = ["floor_margin", "scatter"])]
@@ -375,9 +386,9 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: !self.no_polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
-        o.compare.scf_one_normaliser = self.scf_one_normaliser;
+        o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         o
     }
 }

@@ -488,18 +488,26 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.run_steps(3);
     assert!(!h.state().settings.loop_options(Default::default()).unbend_when_stuck);
     // The floor margin of the decision: the library's default until changed.
-    assert_eq!(o.floor_margin, 0.5);
+    assert_eq!(o.floor_margin, 0.3);
     set(&mut h, "floor margin", 0.2);
     assert_eq!(h.state().settings.loop_options(Default::default()).floor_margin, 0.2);
-    // The experimental calibration polish: off until set.
-    assert_eq!(o.polish_sweeps, 0);
-    set(&mut h, "calibration polish (experimental)", 4.0);
-    assert_eq!(h.state().settings.loop_options(Default::default()).polish_sweeps, 4);
-    // Whether the polish acts on an unbent trial's second start: on until unticked.
-    assert!(o.polish_second_starts);
-    h.get_by_label("polish second starts too: the polish also acts on an unbent trial's start from the uncalibrated values (experimental)").click_accesskit();
+    // The calibration polish: four sweeps by default (since session 44) until set.
+    assert_eq!(o.polish_sweeps, 4);
+    set(&mut h, "calibration polish", 0.0);
+    assert_eq!(h.state().settings.loop_options(Default::default()).polish_sweeps, 0);
+    set(&mut h, "calibration polish", 2.0);
+    assert_eq!(h.state().settings.loop_options(Default::default()).polish_sweeps, 2);
+    // Whether the polish acts on an unbent trial's second start: off until ticked.
+    assert!(!o.polish_second_starts);
+    h.get_by_label("polish second starts too: the polish also acts on an unbent trial's start from the uncalibrated values").click_accesskit();
     h.run_steps(3);
-    assert!(!h.state().settings.loop_options(Default::default()).polish_second_starts);
+    assert!(h.state().settings.loop_options(Default::default()).polish_second_starts);
+    // The loop's one SCF normaliser: on by default (since session 44) until unticked, whatever
+    // the comparison options it is given.
+    assert!(o.compare.scf_one_normaliser);
+    h.get_by_label("one SCF normaliser: every SCF slice's error relative to the measured SCF over all slices").click_accesskit();
+    h.run_steps(3);
+    assert!(!h.state().settings.loop_options(Default::default()).compare.scf_one_normaliser);
     // Beyond the range: the editor clamps to the library's limit.
     set(&mut h, "model realisations", 99.0);
     assert_eq!(h.state().settings.loop_options(Default::default()).realisations, twinscope::compare::MAX_REALISATIONS);

@@ -76,7 +76,7 @@ fn hidden_load_zone_is_found_and_the_error_falls() {
     // Round 1 ranks load_zone first and applies it ...
     assert_eq!(history[0].applied, Some(EffectKind::LoadZone), "round 1 verdict: {}", history[0].verdict);
     assert!(history[0].verdict.starts_with("load_zone"), "{}", history[0].verdict);
-    assert!(history.iter().all(|r| r.floor_ratio_needed == 1.5), "each round records the ratio its decision needed");
+    assert!(history.iter().all(|r| (r.floor_ratio_needed - 1.3).abs() < 1e-12), "each round records the ratio its decision needed (1 + the default margin 0.3)");
     // ... and round 2 starts with it on, the (recalibrated) envelope NRMSE at least halved.
     let r2 = history.get(1).expect("a second round");
     assert!(r2.effects_on.contains(&EffectKind::LoadZone));
@@ -117,8 +117,12 @@ fn progress_counts_every_evaluation_and_cancel_stops_the_search() {
     // floor 2, the seed scatter 2, slip 1 + 4 + noise refit 3, casing_modes re-doing the
     // calibration with the mode 1 + 3 × 4 (grid, then line search) + 3 × 4, then both (the top
     // 3) re-fit the 3 calibrated parameters locally: 2 × (1 + 3 × 3), and each fitted machine is
-    // evaluated once more without its effect: 2.
-    let expected = (1 + 3 * 4) + 1 + 2 + 2 + (1 + 4 + 3) + (1 + 12 + 3 * 4) + 2 * (1 + 3 * 3) + 2;
+    // evaluated once more without its effect: 2. The polish (4 sweeps by default) follows the
+    // two full-range fits, the calibration's and the casing trial's, with one 3-evaluation local
+    // line search per fitted parameter and sweep: 4 × 3 × 3 and 4 × 4 × 3 (the mode's frequency
+    // and the three calibrated parameters).
+    assert_eq!(opts.polish_sweeps, 4);
+    let expected = (1 + 3 * 4) + 1 + 2 + 2 + (1 + 4 + 3) + (1 + 12 + 3 * 4) + 2 * (1 + 3 * 3) + 2 + 4 * 3 * 3 + 4 * 4 * 3;
     assert_eq!(last_expected.load(Ordering::SeqCst), expected);
     assert_eq!(last_done.load(Ordering::SeqCst), expected);
     assert_eq!(calls.load(Ordering::SeqCst), expected);
@@ -630,9 +634,10 @@ fn a_random_effect_that_leads_with_one_realisation_gets_a_second_look_with_sever
     assert_eq!(look.verdict_with_one, one.verdict);
     assert!(d.verdict.starts_with(&two.verdict) && d.verdict.contains("second look with 2 realisations"), "{}", d.verdict);
     assert!(d.held_out_objective.is_some(), "judged held out, as any diagnosis with two");
-    // Each decision records the floor ratio it needed: 1.5 with one realisation, √3.5 with two.
-    assert_eq!(one.floor_ratio_needed, 1.5);
-    assert!((d.floor_ratio_needed - 3.5f64.sqrt()).abs() < 1e-12, "{}", d.floor_ratio_needed);
+    // Each decision records the floor ratio it needed: 1.3 with one realisation, √2.38 with two
+    // (the default margin 0.3).
+    assert!((one.floor_ratio_needed - 1.3).abs() < 1e-12, "{}", one.floor_ratio_needed);
+    assert!((d.floor_ratio_needed - 2.38f64.sqrt()).abs() < 1e-12, "{}", d.floor_ratio_needed);
     assert_eq!(cal, cal2);
     assert_eq!(strip(d), strip(two));
     // A deterministic leader, or several realisations already: no second look.
@@ -811,13 +816,14 @@ fn without_polishing_second_starts_only_the_unbent_start_goes_unpolished() {
 
 /// The evaluations of effect `k`'s trial from the uncalibrated values on `model_m`: its main
 /// parameter scanned, then one sweep with every calibration parameter (an unbent search's
-/// second start), with `opts`' polish.
+/// second start), with `opts`' polish when `opts.polish_second_starts` lets it act there.
 fn unbent_start_evaluations(model_m: &model::Machine, k: EffectKind, opts: &LoopOptions) -> usize {
     use twinscope::compare::{calibrate, diagnose};
     let mut t = model_m.clone();
     t.effects.enable(k);
     let scan: Vec<Param> = Param::main_of_effect(k).into_iter().collect();
-    calibrate::fit_evaluations(&t, &diagnose::recalibration_parameters(k, &t, opts), &scan, 1, opts)
+    let polish_sweeps = if opts.polish_second_starts { opts.polish_sweeps } else { 0 };
+    calibrate::fit_evaluations(&t, &diagnose::recalibration_parameters(k, &t, opts), &scan, 1, &LoopOptions { polish_sweeps, ..opts.clone() })
 }
 
 /// `LoopOptions::unbend_when_stuck` before the second look (session 31): a hidden load zone
@@ -876,6 +882,14 @@ fn a_stuck_search_is_unbent_before_its_second_look() {
 fn a_stuck_second_look_after_a_search_that_was_not_stuck_is_unbent_both_times() {
     use twinscope::compare::diagnose;
     let (model_m, measured, mut opts) = hidden_load_zone_case(EffectKind::Slip);
+    // The search options before session 44 (no polish, each SCF slice by its own range, margin
+    // 0.5): the case sits on this path only with them. With today's defaults the polished
+    // calibration absorbs part of what slip explains (6 % against the 13 % set below), and the
+    // one-realisation search does not choose it (README "Where the acceptance stands").
+    opts.polish_sweeps = 0;
+    opts.polish_second_starts = true;
+    opts.compare.scf_one_normaliser = false;
+    opts.floor_margin = 0.5;
     opts.significance = 0.13;
     let (one, one_calls, _) = diagnose_counting(&model_m, &measured, &opts);
     eprintln!("one realisation: {}", one.verdict);

@@ -203,17 +203,17 @@ pub struct LoopSpec {
     /// A periodic force's amplitude is fitted with twice the line-search evaluations
     /// (`LoopOptions::fine_forces`). Default: the library's.
     pub fine_forces: bool,
-    /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`,
-    /// experimental), 0–8. Default: the library's.
+    /// Sweeps of local line searches after every full-range fit (`LoopOptions::polish_sweeps`),
+    /// 0–8. Default: the library's.
     pub polish_sweeps: usize,
     /// The polish also acts on the second start of an unbent trial
-    /// (`LoopOptions::polish_second_starts`, experimental). Default: the library's.
+    /// (`LoopOptions::polish_second_starts`). Default: the library's.
     pub polish_second_starts: bool,
     /// Transfer-path correction on this many log-spaced PSD bands, fitted to every evaluation
     /// (`CompareOptions::path_correction_bands`), 0–64 (0 = off). Default: the library's.
     pub path_correction_bands: usize,
     /// Every SCF α-slice normalised by the measured SCF over all compared slices
-    /// (`CompareOptions::scf_one_normaliser`, experimental); off, each by its own range.
+    /// (`CompareOptions::scf_one_normaliser`); off, each by its own range.
     /// Default: the library's.
     pub scf_one_normaliser: bool,
     /// The significance test (`LoopOptions::decision_rule`): `"floor_margin"` or `"scatter"`
@@ -599,16 +599,16 @@ mod tests {
         assert!(spec.options(&chain).unwrap().fine_forces, "on by default, as in the library");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = false").unwrap();
         assert!(!spec.options(&chain).unwrap().fine_forces);
-        assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 0, "off by default");
+        assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 4, "four sweeps by default, as in the library");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4").unwrap();
         assert_eq!(spec.options(&chain).unwrap().polish_sweeps, 4);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 9").unwrap();
         let e = spec.options(&chain).unwrap_err();
         assert!(e.contains("polish_sweeps") && e.contains("9"), "{e}");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4").unwrap();
-        assert!(spec.options(&chain).unwrap().polish_second_starts, "on by default, as in the library");
-        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4\npolish_second_starts = false").unwrap();
-        assert!(!spec.options(&chain).unwrap().polish_second_starts);
+        assert!(!spec.options(&chain).unwrap().polish_second_starts, "off by default, as in the library");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npolish_sweeps = 4\npolish_second_starts = true").unwrap();
+        assert!(spec.options(&chain).unwrap().polish_second_starts);
     }
 
     #[test]
@@ -618,13 +618,13 @@ mod tests {
         assert_eq!(spec.options(&chain).unwrap().compare.path_correction_bands, 0);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\npath_correction_bands = 24").unwrap();
         assert_eq!(spec.options(&chain).unwrap().compare.path_correction_bands, 24);
-        assert!(!spec.options(&chain).unwrap().compare.scf_one_normaliser, "each SCF slice by its own range by default");
-        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nscf_one_normaliser = true").unwrap();
-        assert!(spec.options(&chain).unwrap().compare.scf_one_normaliser);
+        assert!(spec.options(&chain).unwrap().compare.scf_one_normaliser, "one SCF normaliser by default, as in the library");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nscf_one_normaliser = false").unwrap();
+        assert!(!spec.options(&chain).unwrap().compare.scf_one_normaliser);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\ndecision_rule = \"scatter\"").unwrap();
         assert_eq!(spec.options(&chain).unwrap().decision_rule, crate::compare::DecisionRule::Scatter);
         assert!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"\ndecision_rule = \"vibes\"").unwrap_err().to_string().contains("vibes"));
-        assert_eq!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"").unwrap().options(&chain).unwrap().floor_margin, 0.5);
+        assert_eq!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"").unwrap().options(&chain).unwrap().floor_margin, 0.3);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfloor_margin = 0.2").unwrap();
         assert_eq!(spec.options(&chain).unwrap().floor_margin, 0.2);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfloor_margin = -0.1").unwrap();

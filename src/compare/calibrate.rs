@@ -307,7 +307,11 @@ pub enum LoopError {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LoopOptions {
-    /// The comparison.
+    /// The comparison. Default: [`CompareOptions::default()`] with
+    /// [`CompareOptions::scf_one_normaliser`] on (since session 44, with the polish of the
+    /// baselines and a 0.3 floor margin, by a fresh-seed test written before its runs:
+    /// docs/loop-notebook.md "The baselines-only polish on a fresh bearing base, and as the
+    /// default"); `twinscope compare` keeps each slice's own range.
     pub compare: CompareOptions,
     /// Simulated (and compared) duration during fitting, s, within [`FIT_DURATION_RANGE_S`].
     /// Default 1.5.
@@ -324,7 +328,10 @@ pub struct LoopOptions {
     /// How far above its seed floor the calibrated objective must be before any effect can be
     /// missing: objective ≥ (1 + margin) × floor with one realisation; with several, the
     /// ratio that asks for the same systematic distance over the model's scatter
-    /// ([`super::diagnose::floor_ratio_needed`]: 1.87 for 0.5). Default 0.5.
+    /// ([`super::diagnose::floor_ratio_needed`]: 1.87 for 0.5, 1.54 for 0.3). Default 0.3 since
+    /// session 44 (0.5 before): with one SCF normaliser and the polished calibration the
+    /// controls sit at 0.94–1.05 × their floors, where they had spread to 1.5 × (docs/loop-notebook.md
+    /// "One normaliser for the SCF slices", "A polish of the baselines only").
     pub floor_margin: f64,
     /// Effects the search may try; empty (the default): every applicable effect the model lacks.
     pub candidates: Vec<crate::model::EffectKind>,
@@ -417,8 +424,8 @@ pub struct LoopOptions {
     /// record (seed 6803 of the bearing base: 5.94 calibrated against 4.59 at the true
     /// parameters, resonance 1349 Hz and damping 0.080 for a true 1277 Hz and 0.045; four
     /// polish sweeps reach 4.64); such a shortfall is read as something missing. At most
-    /// [`MAX_POLISH_SWEEPS`]. Default: 0 (experimental; docs/loop-notebook.md "A calibration
-    /// polish").
+    /// [`MAX_POLISH_SWEEPS`]. Default: 4 since session 44 (0 before; docs/loop-notebook.md "A
+    /// calibration polish", "A polish of the baselines only").
     pub polish_sweeps: usize,
     /// Whether the polish ([`LoopOptions::polish_sweeps`]) also acts on the second start of an
     /// unbent trial (from the uncalibrated values, beside the plain trial from the calibrated
@@ -427,8 +434,8 @@ pub struct LoopOptions {
     /// that re-does it): on a real record, where the trials are unbent, the polish of every
     /// second start is most of its cost (105 with one SCF normaliser and margin 0.3: 36 s
     /// without the polish, 62–73 s with four sweeps, 35 s with four sweeps and this off;
-    /// session 43 measured the default at 27 s in the same hour). Default: on
-    /// (experimental; docs/loop-notebook.md "A polish of the baselines only").
+    /// session 43 measured the old default, without the polish, at 27 s in the same hour).
+    /// Default: off since session 44 (docs/loop-notebook.md "A polish of the baselines only").
     pub polish_second_starts: bool,
     /// How [`super::diagnose::decide`] tests that a missing effect is significant. Default:
     /// [`DecisionRule::FloorMargin`].
@@ -542,7 +549,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions::default(), fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.5, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, fine_forces: true, polish_sweeps: 0, polish_second_starts: true, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.3, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, fine_forces: true, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

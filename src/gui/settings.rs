@@ -69,11 +69,14 @@ pub struct Settings {
     /// evaluations (`LoopOptions::fine_forces`, on by default).
     pub loop_fine_forces: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
-    /// (`LoopOptions::polish_sweeps`, experimental; 0 = off).
+    /// (`LoopOptions::polish_sweeps`; 0 = off, 4 by default since session 44).
     pub loop_polish_sweeps: usize,
     /// Model loop: the polish also acts on an unbent trial's second start
-    /// (`LoopOptions::polish_second_starts`, experimental; on by default).
+    /// (`LoopOptions::polish_second_starts`; off by default since session 44).
     pub loop_polish_second_starts: bool,
+    /// Model loop: every SCF α-slice normalised by the measured SCF over all compared slices
+    /// (`CompareOptions::scf_one_normaliser` of the loop; on by default since session 44).
+    pub loop_scf_one_normaliser: bool,
 }
 
 impl Default for Settings {
@@ -105,6 +108,7 @@ impl Default for Settings {
             loop_fine_forces: LoopOptions::default().fine_forces,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
             loop_polish_second_starts: LoopOptions::default().polish_second_starts,
+            loop_scf_one_normaliser: LoopOptions::default().compare.scf_one_normaliser,
         }
     }
 }
@@ -154,7 +158,7 @@ impl Settings {
     /// naming it, before any work.
     pub fn loop_options(&self, compare: CompareOptions) -> LoopOptions {
         LoopOptions {
-            compare: CompareOptions { path_correction_bands: self.loop_path_correction_bands, ..compare },
+            compare: CompareOptions { path_correction_bands: self.loop_path_correction_bands, scf_one_normaliser: self.loop_scf_one_normaliser, ..compare },
             fit_duration_s: self.loop_fit_duration_s,
             evaluations_per_parameter: self.loop_evaluations_per_parameter,
             sweeps: self.loop_sweeps,

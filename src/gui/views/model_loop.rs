@@ -140,7 +140,7 @@ impl ModelLoopView {
                 ui.label("calibration sweeps");
                 ui.add(egui::DragValue::new(&mut s.loop_sweeps).range(0..=5));
                 ui.end_row();
-                let l = ui.label("calibration polish (experimental)").on_hover_text("after every full-range fit, this many sweeps of local line searches on its parameters, the bracket ± 8 % of each range halved every sweep (0 = off): coordinate descent over the full ranges can stop short of the optimum of coupled parameters (resonance and damping), and a calibration that falls short reads as something missing");
+                let l = ui.label("calibration polish").on_hover_text("after every full-range fit, this many sweeps of local line searches on its parameters, the bracket ± 8 % of each range halved every sweep (0 = off): coordinate descent over the full ranges can stop short of the optimum of coupled parameters (resonance and damping), and a calibration that falls short reads as something missing");
                 ui.add(egui::DragValue::new(&mut s.loop_polish_sweeps).range(0..=crate::compare::MAX_POLISH_SWEEPS).suffix(" sweeps")).labelled_by(l.id);
                 ui.end_row();
                 ui.label("transfer-path correction").on_hover_text("fit a smooth gain curve on this many log-spaced PSD bands to every evaluation before comparing (0 = off): for a real record whose sensor path the model does not describe; spectral-shape effects then compete only on what the bands cannot absorb");
@@ -166,8 +166,10 @@ impl ModelLoopView {
                 .on_hover_text("a periodic force's objective has a narrow minimum among dips decades away: a line search alone can close on the wrong one for a strong force (three times the evaluations for those parameters)");
             ui.checkbox(&mut s.loop_fine_forces, "fine forces: an unbalance, misalignment or belt force gets twice the line-search evaluations")
                 .on_hover_text("the objective's minimum in a force is about 1 % wide and a 9-evaluation line search over its four decades ends within about ±18 %: a force left a few percent off leaves error another effect can stand in for");
-            ui.add_enabled(s.loop_polish_sweeps > 0, egui::Checkbox::new(&mut s.loop_polish_second_starts, "polish second starts too: the polish also acts on an unbent trial's start from the uncalibrated values (experimental)"))
-                .on_hover_text("off, only the calibration and the casing trial that re-does it are polished; an unbent trial keeps a polished start, the one from the calibrated model. On a real record every trial is unbent, and polishing every second start is most of the polish's cost");
+            ui.add_enabled(s.loop_polish_sweeps > 0, egui::Checkbox::new(&mut s.loop_polish_second_starts, "polish second starts too: the polish also acts on an unbent trial's start from the uncalibrated values"))
+                .on_hover_text("off (the default), only the calibration and the casing trial that re-does it are polished; an unbent trial keeps a polished start, the one from the calibrated model. On a real record every trial is unbent, and polishing every second start is most of the polish's cost");
+            ui.checkbox(&mut s.loop_scf_one_normaliser, "one SCF normaliser: every SCF slice's error relative to the measured SCF over all slices")
+                .on_hover_text("on (the default), a slice holding little but estimator noise (the shaft slice of a healthy gear) is not scaled up to the range of that noise; off, each slice by its own measured range, as the comparison view shows it");
             ui.checkbox(&mut s.loop_unbend_when_stuck, "unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values")
                 .on_hover_text("a calibration can bend the model to do without what is missing without reaching an edge of any range; this costs a second search, in stuck rounds only");
             let mut all = s.loop_candidates.is_empty();
