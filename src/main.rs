@@ -280,6 +280,14 @@ struct SearchArgs {
     /// commands run unchanged.
     #[arg(long, hide = true, conflicts_with = "no_unbend_when_stuck")]
     unbend_when_stuck: bool,
+    /// Search a diagnosis again with every trial also started from the uncalibrated values
+    /// when its significant best trial is short: it explains less than half the error above
+    /// the seed floor and leaves the objective above the floor margin's ratio, with a
+    /// calibration that pins nothing (docs/loop-notebook.md "Unbend when short": a strong
+    /// misalignment the calibration absorbed, answered by an unbalance explaining 30 %).
+    /// Costs the unbent search in such rounds only. Experimental, off by default.
+    #[arg(long)]
+    unbend_when_short: bool,
     /// Fit a periodic force's amplitude (unbalance, misalignment, belt) with the plain line
     /// search's evaluations only, not twice them (the default: to about 0.5 % instead of ±18 %,
     /// the objective's minimum in a force being about 1 % wide; docs/loop-notebook.md "Fine
@@ -386,7 +394,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         o
@@ -764,7 +772,13 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         println!("\nhistory:");
         for r in &history {
             let pinned = if r.pinned.is_empty() { String::new() } else { format!(" (calibration pinned {})", r.pinned.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")) };
-            let redo = if r.unbent_when_stuck { " (stuck: searched again unbent)" } else { "" };
+            let redo = if r.unbent_when_stuck {
+                " (stuck: searched again unbent)"
+            } else if r.unbent_when_short {
+                " (short: searched again unbent)"
+            } else {
+                ""
+            };
             println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}){pinned}{redo}, applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
         }
     }

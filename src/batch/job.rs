@@ -200,6 +200,10 @@ pub struct LoopSpec {
     /// A stuck diagnosis whose calibration pins nothing is done again unbent
     /// (`LoopOptions::unbend_when_stuck`). Default: the library's.
     pub unbend_when_stuck: bool,
+    /// A diagnosis whose significant best trial explains under half the error above the floor
+    /// is done again unbent (`LoopOptions::unbend_when_short`, experimental). Default: the
+    /// library's.
+    pub unbend_when_short: bool,
     /// A periodic force's amplitude is fitted with twice the line-search evaluations
     /// (`LoopOptions::fine_forces`). Default: the library's.
     pub fine_forces: bool,
@@ -250,6 +254,7 @@ impl Default for LoopSpec {
             near_floor_rule: o.near_floor_rule,
             scan_force_amplitudes: o.scan_force_amplitudes,
             unbend_when_stuck: o.unbend_when_stuck,
+            unbend_when_short: o.unbend_when_short,
             fine_forces: o.fine_forces,
             polish_sweeps: o.polish_sweeps,
             polish_second_starts: o.polish_second_starts,
@@ -276,7 +281,7 @@ impl LoopSpec {
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
         crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
@@ -562,7 +567,7 @@ mod tests {
         }
         // Every search option the sample names with a value: a README line dropping its
         // "default" would otherwise pass silently.
-        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts"] {
+        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts"] {
             assert!(checked.iter().any(|k| k == key), "README's [model_loop] sample states no default for `{key}`: {checked:?}");
         }
     }
@@ -596,6 +601,9 @@ mod tests {
         assert!(spec.options(&chain).unwrap().unbend_when_stuck, "on by default");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_stuck = false").unwrap();
         assert!(!spec.options(&chain).unwrap().unbend_when_stuck);
+        assert!(!spec.options(&chain).unwrap().unbend_when_short, "off by default, as in the library");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_short = true").unwrap();
+        assert!(spec.options(&chain).unwrap().unbend_when_short);
         assert!(spec.options(&chain).unwrap().fine_forces, "on by default, as in the library");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = false").unwrap();
         assert!(!spec.options(&chain).unwrap().fine_forces);

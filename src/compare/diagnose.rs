@@ -2,7 +2,7 @@
 //! evidence in the residual map for that effect's signature with a trial — switch it on, fit
 //! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
 
-use super::calibrate::{at_search_bound, calibration_parameters, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param};
+use super::calibrate::{at_search_bound, calibration_parameters, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param, SHORT_EXPLAINED};
 use super::residual::{residual_map, ResidualMap};
 use super::{Comparison, Reference};
 use crate::kinematics::CharacteristicFrequency;
@@ -184,6 +184,11 @@ pub struct Diagnosis {
     /// search it replaced, whose trials started from the calibrated model only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stuck_plain_verdict: Option<String>,
+    /// Set when this diagnosis is the unbent redo of a short search
+    /// (`LoopOptions::unbend_when_short`; see [`diagnose_with`]): the plain search's chosen
+    /// effect, the share of the error above the floor it explained, and its verdict.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub short_plain: Option<ShortPlain>,
     /// The transfer-path correction fitted to the calibrated model
     /// (`CompareOptions::path_correction_bands`); `None` when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -210,6 +215,18 @@ pub struct SecondLook {
     pub leader: EffectKind,
     /// The verdict with one realisation.
     pub verdict_with_one: String,
+}
+
+/// The plain search a short one's unbent redo replaced ([`LoopOptions::unbend_when_short`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShortPlain {
+    /// The effect the plain search chose.
+    pub chosen: EffectKind,
+    /// The share of the error above the seed floor its trial explained (under
+    /// [`SHORT_EXPLAINED`](crate::compare::SHORT_EXPLAINED)).
+    pub explained: f64,
+    /// The plain search's verdict.
+    pub verdict: String,
 }
 
 impl Diagnosis {
@@ -633,37 +650,71 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// effect (a 5e-3 kg·m unbalance answered by an extended fault, docs/loop-notebook.md "Unbend when stuck").
 /// The second look then follows the unbent search, unbent too. A second look that is stuck
 /// after a one-realisation search that was not is unbent as before (both searches again).
+///
+/// With [`LoopOptions::unbend_when_short`], a diagnosis whose significant best trial is short
+/// (explains less than [`SHORT_EXPLAINED`] of the error above the floor and leaves the
+/// objective above the floor margin's ratio) is redone unbent in the same places, and the
+/// unbent one is returned with the plain one's choice in [`Diagnosis::short_plain`].
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let mut calibrated = Vec::new();
-    let unbending = opts.unbend_when_stuck && opts.unbend_pinned;
     let first = diagnose_once(m, reference, opts, false, &mut calibrated, progress)?;
-    if unbending && unbend_acts(&first.1, opts) {
+    if unbend_acts(&first.1, opts) {
         // The unbent search starts from the same calibration (deterministic: done again, it
         // would give the same values).
         let (cal, d2) = diagnose_once(m, reference, opts, true, &mut calibrated, progress)?;
-        let d2 = unbent_verdict(d2, &first.1);
+        let d2 = unbent_verdict(d2, &first.1, opts);
         return look_twice((cal, d2), m, reference, opts, true, &mut calibrated, progress);
     }
     let (cal, d) = look_twice(first, m, reference, opts, false, &mut calibrated, progress)?;
-    if !(unbending && unbend_acts(&d, opts)) {
+    if !unbend_acts(&d, opts) {
         return Ok((cal, d));
     }
     let one = diagnose_once(m, reference, opts, true, &mut calibrated, progress)?;
     let (cal, d2) = look_twice(one, m, reference, opts, true, &mut calibrated, progress)?;
-    Ok((cal, unbent_verdict(d2, &d)))
+    Ok((cal, unbent_verdict(d2, &d, opts)))
 }
 
-/// Whether [`LoopOptions::unbend_when_stuck`] searches `d`'s machine again unbent: `d` is
-/// stuck, had trials, and did not unbend already.
+/// Whether `d`'s machine is searched again unbent: `d` had trials, did not unbend already,
+/// and is stuck ([`LoopOptions::unbend_when_stuck`]) or short
+/// ([`LoopOptions::unbend_when_short`]); both need [`LoopOptions::unbend_pinned`].
 fn unbend_acts(d: &Diagnosis, opts: &LoopOptions) -> bool {
-    !d.unbent && !d.trials.is_empty() && stuck(d, opts)
+    let stuck_acts = opts.unbend_when_stuck && stuck(d, opts);
+    let short_acts = opts.unbend_when_short && short(d, opts).is_some();
+    opts.unbend_pinned && !d.unbent && !d.trials.is_empty() && (stuck_acts || short_acts)
 }
 
-/// The unbent diagnosis `d2` with a verdict that says why it was made and what the calibrated
-/// start alone (`d`) said.
-fn unbent_verdict(mut d2: Diagnosis, d: &Diagnosis) -> Diagnosis {
-    d2.stuck_plain_verdict = Some(d.verdict.clone());
-    d2.verdict = format!("{} (stuck with the trials from the calibrated model, which pins nothing: every trial started again from the uncalibrated values too; from the calibrated model alone: {})", d2.verdict, d.verdict);
+/// `d`'s chosen effect when its search is short ([`LoopOptions::unbend_when_short`]): the
+/// best trial, significant, explains less than [`SHORT_EXPLAINED`] of the error above the
+/// seed floor and leaves the objective at or above the floor margin's ratio.
+fn short(d: &Diagnosis, opts: &LoopOptions) -> Option<ShortPlain> {
+    // A second look's floor is of several realisations, with the ratio that goes with them.
+    let looked = d.second_look.as_ref().map(|s| LoopOptions { realisations: s.realisations, ..opts.clone() });
+    let chosen = d.best?;
+    let t = d.trials.iter().find(|t| t.effect == chosen)?;
+    let short = d.floor_objective > 0.0 && t.explained < SHORT_EXPLAINED && above_floor(t.objective_after, d.floor_objective, looked.as_ref().unwrap_or(opts));
+    short.then(|| ShortPlain { chosen, explained: t.explained, verdict: d.verdict.clone() })
+}
+
+/// The unbent diagnosis `d2` with a verdict that says why it was made (`d` stuck or short)
+/// and what the calibrated start alone (`d`) said.
+fn unbent_verdict(mut d2: Diagnosis, d: &Diagnosis, opts: &LoopOptions) -> Diagnosis {
+    // Stuck (no best) and short (a best) exclude each other.
+    let why = match short(d, opts) {
+        Some(s) => {
+            let text = format!(
+                "short with the trials from the calibrated model, which pins nothing: its best, {}, explained {:.0} % of the error above the floor",
+                s.chosen.name(),
+                100.0 * s.explained
+            );
+            d2.short_plain = Some(s);
+            text
+        }
+        None => {
+            d2.stuck_plain_verdict = Some(d.verdict.clone());
+            "stuck with the trials from the calibrated model, which pins nothing".to_string()
+        }
+    };
+    d2.verdict = format!("{} ({why}: every trial started again from the uncalibrated values too; from the calibrated model alone: {})", d2.verdict, d.verdict);
     d2
 }
 
@@ -681,6 +732,7 @@ fn look_twice(first: (Machine, Diagnosis), m: &Machine, reference: &Reference, o
     d2.verdict = format!("{} (a second look with {k} realisations: {} led with one, where a random effect is fitted to one draw; with one: {})", d2.verdict, leader.name(), d.verdict);
     // A second look after an unbent redo keeps what the plain search said.
     d2.stuck_plain_verdict = d.stuck_plain_verdict.clone();
+    d2.short_plain = d.short_plain.clone();
     d2.second_look = Some(SecondLook { realisations: k, leader, verdict_with_one: d.verdict });
     Ok((cal, d2))
 }
@@ -976,7 +1028,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
@@ -1156,6 +1208,10 @@ pub struct Round {
     /// [`Diagnosis::stuck_plain_verdict`]).
     #[serde(default)]
     pub unbent_when_stuck: bool,
+    /// Whether the round's search was short with its trials from the calibrated model and was
+    /// searched again unbent (`LoopOptions::unbend_when_short`, [`Diagnosis::short_plain`]).
+    #[serde(default)]
+    pub unbent_when_short: bool,
 }
 
 impl Round {
@@ -1184,6 +1240,7 @@ impl Round {
             ranking_effect_explained: d.trials.iter().map(|t| t.effect_explained.unwrap_or(f64::NAN)).collect(),
             pinned: d.calibration.pinned(),
             unbent_when_stuck: d.stuck_plain_verdict.is_some(),
+            unbent_when_short: d.short_plain.is_some(),
             ..Default::default()
         }
     }
@@ -1468,7 +1525,7 @@ pub fn refit_from_uncalibrated(cal: &Machine, start: &Machine, a: EffectKind, re
 /// unbent as well cost the seen pair 3805 an unbent search per candidate (104 min for one
 /// case, docs/loop-notebook.md "Unbend when stuck").
 fn searched_plainly(opts: &LoopOptions) -> LoopOptions {
-    LoopOptions { unbend_when_stuck: false, ..opts.clone() }
+    LoopOptions { unbend_when_stuck: false, unbend_when_short: false, ..opts.clone() }
 }
 
 /// A replacement the loop keeps: the new machine, its diagnosis (calibrated machine,

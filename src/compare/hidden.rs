@@ -53,6 +53,10 @@ pub struct CaseResult {
     pub pinned: Vec<Param>,
     #[serde(default)]
     pub unbent: bool,
+    /// With `LoopOptions::unbend_when_short`: the effect the plain search chose, when its
+    /// short answer was searched again unbent ([`super::diagnose::Diagnosis::short_plain`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub short_plain_chosen: Option<EffectKind>,
     /// What the true machine itself scores against the measurement ([`oracle`]).
     #[serde(default)]
     pub oracle: Oracle,
@@ -390,6 +394,7 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
         trials: d.trials.clone(),
         pinned: d.calibration.pinned(),
         unbent: d.unbent,
+        short_plain_chosen: d.short_plain.as_ref().map(|s| s.chosen),
         oracle,
         seconds: t0.elapsed().as_secs_f64(),
     })

@@ -9,7 +9,7 @@ pub mod metrics;
 pub mod residual;
 
 pub use metrics::{metrics, metrics_normalised_by, pearson, xcorr_peak, Metrics, Normaliser};
-pub use calibrate::{evaluate, fit, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param, FIT_DURATION_RANGE_S, MAX_POLISH_SWEEPS, MAX_REALISATIONS};
+pub use calibrate::{evaluate, fit, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param, FIT_DURATION_RANGE_S, MAX_POLISH_SWEEPS, MAX_REALISATIONS, SHORT_EXPLAINED};
 pub use diagnose::{apply_trial, diagnose, diagnose_with, machine_families, run_loop, seed_floor, Diagnosis, EffectTrial, Round, SecondLook, MAX_LOOP_ROUNDS, check_loop_rounds};
 pub use residual::{residual_map, ResidualItem, ResidualMap};
 

@@ -65,6 +65,9 @@ pub struct Settings {
     /// Model loop: a stuck diagnosis is done again unbent (`LoopOptions::unbend_when_stuck`,
     /// on by default since session 31).
     pub loop_unbend_when_stuck: bool,
+    /// Model loop: a diagnosis whose best trial explains under half the error above the floor
+    /// is done again unbent (`LoopOptions::unbend_when_short`, experimental).
+    pub loop_unbend_when_short: bool,
     /// Model loop: a periodic force's amplitude is fitted with twice the line-search
     /// evaluations (`LoopOptions::fine_forces`, on by default).
     pub loop_fine_forces: bool,
@@ -105,6 +108,7 @@ impl Default for Settings {
             loop_near_floor_rule: LoopOptions::default().near_floor_rule,
             loop_scan_force_amplitudes: LoopOptions::default().scan_force_amplitudes,
             loop_unbend_when_stuck: LoopOptions::default().unbend_when_stuck,
+            loop_unbend_when_short: LoopOptions::default().unbend_when_short,
             loop_fine_forces: LoopOptions::default().fine_forces,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
             loop_polish_second_starts: LoopOptions::default().polish_second_starts,
@@ -171,6 +175,7 @@ impl Settings {
             near_floor_rule: self.loop_near_floor_rule,
             scan_force_amplitudes: self.loop_scan_force_amplitudes,
             unbend_when_stuck: self.loop_unbend_when_stuck,
+            unbend_when_short: self.loop_unbend_when_short,
             fine_forces: self.loop_fine_forces,
             polish_sweeps: self.loop_polish_sweeps,
             polish_second_starts: self.loop_polish_second_starts,

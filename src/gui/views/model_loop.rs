@@ -172,6 +172,8 @@ impl ModelLoopView {
                 .on_hover_text("on (the default), a slice holding little but estimator noise (the shaft slice of a healthy gear) is not scaled up to the range of that noise; off, each slice by its own measured range, as the comparison view shows it");
             ui.checkbox(&mut s.loop_unbend_when_stuck, "unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values")
                 .on_hover_text("a calibration can bend the model to do without what is missing without reaching an edge of any range; this costs a second search, in stuck rounds only");
+            ui.checkbox(&mut s.loop_unbend_when_short, "unbend when short: a search whose best explains under half the error starts every trial again from the uncalibrated values (experimental)")
+                .on_hover_text("a calibration that absorbed a strong force can leave a stand-in ranked first that explains little (a misalignment answered by an unbalance); this costs a second search, in such rounds only");
             let mut all = s.loop_candidates.is_empty();
             if ui.checkbox(&mut all, "try every applicable effect the model lacks").changed() {
                 s.loop_candidates = if all { Vec::new() } else { EffectKind::ALL.into_iter().filter(|k| !machine.effects.is_on(*k) && Effects::applicable(*k, machine)).collect() };
