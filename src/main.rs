@@ -353,7 +353,7 @@ struct SearchArgs {
     /// Model realisations (seeds) per evaluation, their spectra averaged before comparing, so
     /// random effects (slip, a rough fault, noise) are fitted to their expected spectra, not to
     /// one draw; with K ≥ 2 their mean's own scatter is taken out of the error, the floor
-    /// ratio rises to 1.87 to ask for the same systematic misfit, and the calibrated model and
+    /// ratio rises (to 1.54 with the default margin) to ask for the same systematic misfit, and the calibrated model and
     /// every trial are judged on K held-out realisations no fit used (each evaluation costs K
     /// simulations, run in parallel; not the default: with 2 a random effect's objective
     /// scatters from draw to draw by half its own gain, so a 2 % slip is not found, docs/loop-notebook.md

@@ -487,6 +487,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("unbend when stuck: a stuck search whose calibration pins nothing starts every trial again from the uncalibrated values").click_accesskit();
     h.run_steps(3);
     assert!(!h.state().settings.loop_options(Default::default()).unbend_when_stuck);
+    // The experimental unbend when short: off until ticked.
+    assert!(!o.unbend_when_short);
+    h.get_by_label("unbend when short: a search whose best explains under half the error starts every trial again from the uncalibrated values (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).unbend_when_short);
     // The floor margin of the decision: the library's default until changed.
     assert_eq!(o.floor_margin, 0.3);
     set(&mut h, "floor margin", 0.2);
@@ -521,6 +526,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.state_mut().settings.loop_random_effect_realisations = 17;
     let e = h.state().settings.loop_options(Default::default()).validate().unwrap_err().to_string();
     assert!(e.contains("random_effect_realisations"), "{e}");
+    // The reset button puts every search setting back to the library's default (a settings
+    // file saved under older defaults keeps its values until then).
+    h.get_by_label("reset search settings to the defaults").click();
+    h.run_steps(3);
+    assert_eq!(h.state().settings.loop_options(Default::default()), twinscope::gui::settings::Settings::default().loop_options(Default::default()));
 }
 
 /// A diagnosis that is a second look (a random effect led the search with one realisation)

@@ -751,7 +751,7 @@ fn hidden_load_zone_case(k: EffectKind) -> (model::Machine, twinscope::signal::S
 fn assert_stuck_pinning_nothing(d: &twinscope::compare::Diagnosis) {
     assert!(d.best.is_none() && !d.unbent, "{}", d.verdict);
     assert!(d.calibration.at_bound.is_empty(), "the calibration pinned {:?}: unbending would act anyway", d.calibration.at_bound);
-    assert!(d.judged_objective() > 1.5 * d.floor_objective, "not stuck: {:.2} against a floor of {:.2}", d.judged_objective(), d.floor_objective);
+    assert!(d.floor_ratio_needed > 1.0 && d.judged_objective() >= d.floor_ratio_needed * d.floor_objective, "not stuck: {:.2} against a floor of {:.2} (ratio needed {:.2})", d.judged_objective(), d.floor_objective, d.floor_ratio_needed);
 }
 
 /// `LoopOptions::unbend_when_stuck`: a hidden load zone the only candidate (an unbalance) cannot
@@ -998,4 +998,46 @@ fn a_polished_calibration_reaches_the_true_parameters_where_coordinate_descent_s
     assert!((res(&polished_m) / res(&truth) - 1.0).abs() < 0.5 * (res(&plain_m) / res(&truth) - 1.0).abs(), "resonance: true {:.0}, plain {:.0}, polished {:.0} Hz", res(&truth), res(&plain_m), res(&polished_m));
     assert_eq!(polished_fit.evaluations, fit_evaluations(&model_m, &params, &[], polished.sweeps, &polished));
     assert_eq!(polished_fit.evaluations - plain_fit.evaluations, 4 * params.len() * 6);
+}
+
+/// `LoopOptions::unbend_when_short` (experimental) on the seed-8508 case of the bearing base
+/// (docs/loop-notebook.md "Unbend when short"): a hidden 46 N misalignment the calibration
+/// absorbs without pinning anything (it shrinks the fault depth). From that calibration the
+/// misalignment's trial stays far from the force and an unbalance, explaining under half the
+/// error above the floor, is chosen; with the option the short search is done again unbent,
+/// finds the misalignment within 5 % of its force, keeps the plain choice, and expects every
+/// evaluation it makes. Candidates: the two forces only.
+#[test]
+fn a_short_answer_is_searched_again_unbent_and_finds_the_absorbed_force() {
+    let base = model::preset("mfs_inner").unwrap();
+    let (mut truth, model_m, true_param, _) = hidden::make_case(&base, Some(EffectKind::Misalignment), 8508);
+    let (_, true_force) = true_param.unwrap();
+    truth.duration_s = 2.0;
+    let measured = model::simulate(&truth).unwrap();
+    let opts = LoopOptions { candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment], random_effect_realisations: 0, ..Default::default() };
+    let (plain, plain_calls, plain_expected) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("plain: pinned {:?}; {}", plain.calibration.at_bound, plain.verdict);
+    assert_eq!(plain_calls, plain_expected);
+    assert!(!plain.unbent && plain.calibration.at_bound.is_empty(), "the calibration pinned {:?}", plain.calibration.at_bound);
+    let chosen = plain.trials.iter().find(|t| Some(t.effect) == plain.best).expect("the plain search chose something");
+    assert_eq!(chosen.effect, EffectKind::Unbalance, "{}", plain.verdict);
+    assert!(chosen.explained < twinscope::compare::SHORT_EXPLAINED, "{}", plain.verdict);
+    let opts = LoopOptions { unbend_when_short: true, ..opts };
+    let (again, calls, expected) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("unbend when short: {}", again.verdict);
+    assert_eq!(calls, expected);
+    assert!(again.unbent && again.best == Some(EffectKind::Misalignment), "{}", again.verdict);
+    let force = Param::Misalignment2xN;
+    let fitted = again.trials[0].parameter.filter(|(p, _)| *p == force).map(|(_, v)| v).unwrap();
+    assert!((fitted / true_force - 1.0).abs() < 0.05, "fitted {fitted:.1} N, true {true_force:.1} N");
+    assert!(again.trials[0].explained > 0.9, "{}", again.verdict);
+    let kept = again.short_plain.as_ref().expect("the plain choice is kept");
+    assert_eq!((kept.chosen, kept.verdict.as_str()), (EffectKind::Unbalance, plain.verdict.as_str()));
+    assert!(twinscope::compare::Round::of_diagnosis(1, model_m.effects.enabled(), &again, 0.0).unbent_when_short);
+    // The unbent search takes over the plain one's calibration and trials and adds each
+    // trial's second start from the uncalibrated values.
+    let calibration = twinscope::compare::diagnose::calibration_evaluations(&model_m, &opts);
+    let plain_trials: usize = opts.candidates.iter().map(|k| twinscope::compare::diagnose::plain_trial_evaluations(&model_m, *k, &opts)).sum();
+    let second_starts: usize = opts.candidates.iter().map(|k| unbent_start_evaluations(&model_m, *k, &opts)).sum();
+    assert_eq!(calls, 2 * plain_calls - calibration - plain_trials + second_starts);
 }

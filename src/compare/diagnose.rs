@@ -156,8 +156,8 @@ pub struct Diagnosis {
     pub floor_domains: Vec<(String, f64)>,
     /// The objective / floor ratio from which the decision saw something to explain
     /// ([`floor_ratio_needed`] of the options it was judged with: 1.3 with one realisation and
-    /// the default margin, 1.5 with session 43's). 0 under [`DecisionRule::Scatter`], which asks no ratio, and in an old
-    /// JSON.
+    /// the default margin, 1.5 with session 43's). 0 under [`DecisionRule::Scatter`], which
+    /// asks no ratio, and in an old JSON.
     #[serde(default)]
     pub floor_ratio_needed: f64,
     /// Standard deviation of the calibrated objective when only the model's seed changes: the
@@ -616,8 +616,9 @@ fn above_floor(j: f64, floor: f64, opts: &LoopOptions) -> bool {
 /// realisations the mean's own scatter is taken out of both
 /// ([`DomainComparison::debiased_nrmse_percent`](crate::compare::DomainComparison::debiased_nrmse_percent)):
 /// floor² ≈ V, j² ≈ b² + V, and the same b²/V needs the ratio √(1 + 2((1 + m)² − 1)), 1.54
-/// for the default 0.3 (1.87 for 0.5). Keeping 1 + m there would ask for a systematic distance 2.3 times
-/// smaller than with one realisation (docs/loop-notebook.md "Detection limits").
+/// for the default 0.3 (1.87 for 0.5). Keeping 1 + m there would ask, whatever m, for half
+/// the squared systematic distance b² (b √2 smaller) than with one realisation
+/// (docs/loop-notebook.md "Detection limits").
 pub fn floor_ratio_needed(opts: &LoopOptions) -> f64 {
     let r1 = 1.0 + opts.floor_margin;
     if opts.realisations <= 1 {
@@ -2107,6 +2108,50 @@ mod tests {
         assert!(j.kept(), "{j:?}");
         assert!(j.tried_text().starts_with(&format!("load_zone {REFITTED} reaches 4.00")), "{}", j.tried_text());
         assert!(j.kept_text().contains(&format!("load_zone {REFITTED}")) && j.kept_text().contains("4.00 against 9.00"), "{}", j.kept_text());
+    }
+
+    /// `LoopOptions::unbend_when_short`: a significant best that explains under half the error
+    /// above the floor and leaves the objective at or above the margin's ratio is short (seed
+    /// 8508's unbalance: 14.86 → 10.96 over a floor of 1.81, 30 %); over half, under the ratio
+    /// after it, or no best (stuck) is not. Only the option, with unbending on and the search
+    /// not unbent already, redoes it, and the redo keeps the plain choice.
+    #[test]
+    fn a_significant_best_that_explains_under_half_is_short() {
+        use EffectKind::*;
+        let opts = LoopOptions { unbend_when_short: true, ..LoopOptions::default() };
+        let diagnosis = |j0: f64, floor: f64, j_best: f64| {
+            let mut d = Diagnosis { floor_objective: floor, best: Some(Unbalance), trials: vec![trial(Unbalance, j0, floor, j_best, 0.06), trial(Misalignment, j0, floor, 12.84, 0.06)], verdict: "unbalance: plain".into(), ..Default::default() };
+            d.calibration.objective_after = j0;
+            d
+        };
+        let d = diagnosis(14.86, 1.81, 10.96);
+        let s = short(&d, &opts).expect("short");
+        assert_eq!((s.chosen, s.verdict.as_str()), (Unbalance, "unbalance: plain"));
+        assert!((s.explained - 3.9 / 13.05).abs() < 1e-12, "{}", s.explained);
+        assert!(unbend_acts(&d, &opts));
+        // Not without the option, without unbending, or when unbent already.
+        assert!(!unbend_acts(&d, &LoopOptions { unbend_when_short: false, ..opts.clone() }));
+        assert!(!unbend_acts(&d, &LoopOptions { unbend_pinned: false, ..opts.clone() }));
+        assert!(!unbend_acts(&Diagnosis { unbent: true, ..d.clone() }, &opts));
+        // Over half explained (14.86 → 7.0: 60 %): not short.
+        assert!(short(&diagnosis(14.86, 1.81, 7.0), &opts).is_none());
+        // Under half (44 %), but the objective after it (2.25) under 1.3 × 1.81 = 2.35: nothing
+        // the floor margin would call missing is left.
+        assert!(short(&diagnosis(2.6, 1.81, 2.25), &opts).is_none());
+        assert!(short(&diagnosis(2.6, 1.81, 2.40), &opts).is_some());
+        // No best: stuck, not short (`unbend_when_stuck` is the one that acts).
+        let stuck_d = Diagnosis { best: None, ..d.clone() };
+        assert!(short(&stuck_d, &opts).is_none());
+        assert!(!unbend_acts(&stuck_d, &LoopOptions { unbend_when_stuck: false, ..opts.clone() }));
+        // The redo's verdict says why and keeps the plain choice; a stuck redo keeps its own.
+        let redo = Diagnosis { verdict: "misalignment: unbent".into(), ..Default::default() };
+        let r = unbent_verdict(redo.clone(), &d, &opts);
+        assert_eq!(r.short_plain, Some(s));
+        assert_eq!(r.stuck_plain_verdict, None);
+        assert!(r.verdict.starts_with("misalignment: unbent (short with the trials from the calibrated model, which pins nothing: its best, unbalance, explained 30 % of the error above the floor") && r.verdict.ends_with("from the calibrated model alone: unbalance: plain)"), "{}", r.verdict);
+        let r = unbent_verdict(redo, &Diagnosis { verdict: "nothing significant is missing".into(), ..stuck_d }, &opts);
+        assert_eq!((r.short_plain, r.stuck_plain_verdict.as_deref()), (None, Some("nothing significant is missing")));
+        assert!(r.verdict.contains("(stuck with the trials from the calibrated model, which pins nothing: every trial started again"), "{}", r.verdict);
     }
 
     #[test]

@@ -183,8 +183,92 @@ impl Settings {
         }
     }
 
+    /// Puts every search setting of the model loop (`loop_*`) back to its default, the
+    /// library's, keeping the effects chosen to try (`loop_candidates`) and everything
+    /// else: a settings file saved under an older default keeps its values until then.
+    pub fn reset_search_settings(&mut self) {
+        let kept = std::mem::take(self);
+        *self = Settings {
+            chain_preset: kept.chain_preset,
+            machine_preset: kept.machine_preset,
+            spectrum_scale: kept.spectrum_scale,
+            show_markers: kept.show_markers,
+            show_sidebands: kept.show_sidebands,
+            marker_harmonics: kept.marker_harmonics,
+            peak_count: kept.peak_count,
+            label_tolerance_percent: kept.label_tolerance_percent,
+            recent_files: kept.recent_files,
+            last_dir: kept.last_dir,
+            loop_candidates: kept.loop_candidates,
+            ..Settings::default()
+        };
+    }
+
     /// The peak-labelling settings (batch defaults, with the table size and tolerance).
     pub fn labelling(&self) -> PeakLabelling {
         PeakLabelling { peaks: self.peak_count.max(1), tolerance_percent: self.label_tolerance_percent, ..Default::default() }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A settings value with every field away from its default (the test below checks that,
+    /// so a new field must be set here too).
+    fn everything_changed() -> Settings {
+        Settings {
+            chain_preset: "other_chain".into(),
+            machine_preset: "mfs_inner".into(),
+            spectrum_scale: AmplitudeScale::Log10,
+            show_markers: false,
+            show_sidebands: false,
+            marker_harmonics: 3,
+            peak_count: 7,
+            label_tolerance_percent: 2.5,
+            recent_files: vec![PathBuf::from("/data/105.mat")],
+            last_dir: Some(PathBuf::from("/data")),
+            loop_fit_duration_s: 0.7,
+            loop_evaluations_per_parameter: 5,
+            loop_sweeps: 1,
+            loop_candidates: vec![EffectKind::LoadZone],
+            loop_unbend_pinned: false,
+            loop_uncalibrated_start: true,
+            loop_path_correction_bands: 16,
+            loop_realisations: 2,
+            loop_random_effect_realisations: 0,
+            loop_floor_margin: 0.5,
+            loop_near_floor_rule: true,
+            loop_scan_force_amplitudes: false,
+            loop_unbend_when_stuck: false,
+            loop_unbend_when_short: true,
+            loop_fine_forces: false,
+            loop_polish_sweeps: 0,
+            loop_polish_second_starts: true,
+            loop_scf_one_normaliser: false,
+        }
+    }
+
+    #[test]
+    fn resetting_the_search_settings_restores_every_loop_default_and_keeps_the_rest() {
+        let fields = |s: &Settings| match serde_json::to_value(s).unwrap() {
+            serde_json::Value::Object(m) => m,
+            _ => unreachable!(),
+        };
+        let (before, default) = (fields(&everything_changed()), fields(&Settings::default()));
+        for (k, v) in &before {
+            assert_ne!(Some(v), default.get(k), "`{k}` is at its default in the changed settings");
+        }
+        let mut s = everything_changed();
+        s.reset_search_settings();
+        let after = fields(&s);
+        for (k, v) in &after {
+            let expected = if k.starts_with("loop_") && k != "loop_candidates" { &default[k] } else { &before[k] };
+            assert_eq!(v, expected, "`{k}` after the reset");
+        }
+        // What the search is given: the library's options, the candidates kept.
+        let compare = CompareOptions::default();
+        assert_eq!(s.loop_options(compare.clone()), LoopOptions { candidates: vec![EffectKind::LoadZone], ..Settings::default().loop_options(compare) });
+        assert_eq!(Settings::default().loop_options(LoopOptions::default().compare), LoopOptions::default());
     }
 }

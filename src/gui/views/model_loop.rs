@@ -130,6 +130,9 @@ impl ModelLoopView {
     fn search_settings_ui(ui: &mut egui::Ui, settings: &Settings, machine: &Machine) -> Option<Settings> {
         let mut s = settings.clone();
         egui::CollapsingHeader::new("Search settings").default_open(false).show(ui, |ui| {
+            if ui.button("reset search settings to the defaults").on_hover_text("every setting below back to the library's default (the defaults change as the search improves; a settings file keeps the values it was saved with); the effects chosen to try are kept").clicked() {
+                s.reset_search_settings();
+            }
             egui::Grid::new("search-settings").num_columns(2).show(ui, |ui| {
                 let l = ui.label("fit duration").on_hover_text("simulated and compared duration of each model evaluation");
                 ui.add(egui::DragValue::new(&mut s.loop_fit_duration_s).range(crate::compare::FIT_DURATION_RANGE_S).speed(0.05).suffix(" s")).labelled_by(l.id);
