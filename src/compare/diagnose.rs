@@ -688,11 +688,9 @@ fn unbend_acts(d: &Diagnosis, opts: &LoopOptions) -> bool {
 /// best trial, significant, explains less than [`SHORT_EXPLAINED`] of the error above the
 /// seed floor and leaves the objective at or above the floor margin's ratio.
 fn short(d: &Diagnosis, opts: &LoopOptions) -> Option<ShortPlain> {
-    // A second look's floor is of several realisations, with the ratio that goes with them.
-    let looked = d.second_look.as_ref().map(|s| LoopOptions { realisations: s.realisations, ..opts.clone() });
     let chosen = d.best?;
     let t = d.trials.iter().find(|t| t.effect == chosen)?;
-    let short = d.floor_objective > 0.0 && t.explained < SHORT_EXPLAINED && above_floor(t.objective_after, d.floor_objective, looked.as_ref().unwrap_or(opts));
+    let short = t.explained < SHORT_EXPLAINED && above_floor_of(d, t.objective_after, opts);
     short.then(|| ShortPlain { chosen, explained: t.explained, verdict: d.verdict.clone() })
 }
 
@@ -1309,9 +1307,15 @@ pub const REPLACEMENT_TRIALS: usize = 2;
 /// `(1 + floor_margin) ×` its seed floor, so something is missing that no single addition
 /// finds.
 fn stuck(d: &Diagnosis, opts: &LoopOptions) -> bool {
-    // A second look's floor is of several realisations, with the ratio that goes with them.
+    d.best.is_none() && above_floor_of(d, d.judged_objective(), opts)
+}
+
+/// Whether objective `j` is at or above `d`'s seed floor times the floor margin's ratio
+/// ([`above_floor`]); false without a floor. A second look's floor is of several
+/// realisations, with the ratio that goes with them.
+fn above_floor_of(d: &Diagnosis, j: f64, opts: &LoopOptions) -> bool {
     let looked = d.second_look.as_ref().map(|s| LoopOptions { realisations: s.realisations, ..opts.clone() });
-    d.best.is_none() && d.floor_objective > 0.0 && above_floor(d.judged_objective(), d.floor_objective, looked.as_ref().unwrap_or(opts))
+    d.floor_objective > 0.0 && above_floor(j, d.floor_objective, looked.as_ref().unwrap_or(opts))
 }
 
 /// The replacements worth trying when the loop is stuck, best first, at most
