@@ -1041,3 +1041,42 @@ fn a_short_answer_is_searched_again_unbent_and_finds_the_absorbed_force() {
     let second_starts: usize = opts.candidates.iter().map(|k| unbent_start_evaluations(&model_m, *k, &opts)).sum();
     assert_eq!(calls, 2 * plain_calls - calibration - plain_trials + second_starts);
 }
+
+/// `LoopOptions::uncalibrated_start_top` (experimental) on the same seed-8508 case
+/// (docs/loop-notebook.md "A second start for the top trials"): the calibration moves the
+/// fault depth far to do without the misalignment, pinning nothing, and stage 2's local
+/// re-fit cannot move it back. With the option the best trials also start from the
+/// uncalibrated values before stage 2; the misalignment's second start wins, the search is
+/// not unbent, the misalignment is chosen within 5 % of its force, and the search makes
+/// exactly the plain search's evaluations plus each top trial's second start.
+#[test]
+fn a_second_start_for_the_top_trials_finds_the_force_a_moved_calibration_hides() {
+    use twinscope::compare::diagnose::scanned_start_evaluations;
+    let base = model::preset("mfs_inner").unwrap();
+    let (mut truth, model_m, true_param, _) = hidden::make_case(&base, Some(EffectKind::Misalignment), 8508);
+    let (_, true_force) = true_param.unwrap();
+    truth.duration_s = 2.0;
+    let measured = model::simulate(&truth).unwrap();
+    let opts = LoopOptions { candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment], random_effect_realisations: 0, ..Default::default() };
+    let (plain, plain_calls, _) = diagnose_counting(&model_m, &measured, &opts);
+    assert_eq!(plain.best, Some(EffectKind::Unbalance), "{}", plain.verdict);
+    assert!(plain.top_second_starts_won.is_empty());
+    let opts = LoopOptions { uncalibrated_start_top: true, ..opts };
+    let (top, calls, expected) = diagnose_counting(&model_m, &measured, &opts);
+    eprintln!("second start for the top trials: {}", top.verdict);
+    assert_eq!(calls, expected);
+    assert!(!top.unbent && top.calibration.at_bound.is_empty(), "pinned {:?}", top.calibration.at_bound);
+    assert_eq!(top.best, Some(EffectKind::Misalignment), "{}", top.verdict);
+    assert!(top.top_second_starts_won.contains(&EffectKind::Misalignment), "{:?}", top.top_second_starts_won);
+    let t = &top.trials[0];
+    assert!(t.from_uncalibrated);
+    let fitted = t.parameter.filter(|(p, _)| *p == Param::Misalignment2xN).map(|(_, v)| v).unwrap();
+    assert!((fitted / true_force - 1.0).abs() < 0.05, "fitted {fitted:.1} N, true {true_force:.1} N");
+    assert!(t.explained > 0.9, "{}", top.verdict);
+    // Both candidates are among the top three, and neither started from the uncalibrated
+    // values in stage 1: each gets one second start.
+    let second_starts: usize = opts.candidates.iter().map(|k| scanned_start_evaluations(&model_m, *k, &opts)).sum();
+    assert_eq!(calls, plain_calls + second_starts);
+    let round = twinscope::compare::Round::of_diagnosis(1, model_m.effects.enabled(), &top, 0.0);
+    assert_eq!(round.top_second_starts_won, top.top_second_starts_won);
+}

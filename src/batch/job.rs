@@ -204,6 +204,9 @@ pub struct LoopSpec {
     /// is done again unbent (`LoopOptions::unbend_when_short`, experimental). Default: the
     /// library's.
     pub unbend_when_short: bool,
+    /// The best three stage-1 trials also start from the uncalibrated values before stage 2
+    /// (`LoopOptions::uncalibrated_start_top`, experimental). Default: the library's (off).
+    pub uncalibrated_start_top: bool,
     /// A periodic force's amplitude is fitted with twice the line-search evaluations
     /// (`LoopOptions::fine_forces`). Default: the library's.
     pub fine_forces: bool,
@@ -255,6 +258,7 @@ impl Default for LoopSpec {
             scan_force_amplitudes: o.scan_force_amplitudes,
             unbend_when_stuck: o.unbend_when_stuck,
             unbend_when_short: o.unbend_when_short,
+            uncalibrated_start_top: o.uncalibrated_start_top,
             fine_forces: o.fine_forces,
             polish_sweeps: o.polish_sweeps,
             polish_second_starts: o.polish_second_starts,
@@ -281,7 +285,7 @@ impl LoopSpec {
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
         crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: self.uncalibrated_start_top, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
@@ -567,7 +571,7 @@ mod tests {
         }
         // Every search option the sample names with a value: a README line dropping its
         // "default" would otherwise pass silently.
-        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts"] {
+        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "uncalibrated_start_top", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts"] {
             assert!(checked.iter().any(|k| k == key), "README's [model_loop] sample states no default for `{key}`: {checked:?}");
         }
     }
@@ -604,6 +608,10 @@ mod tests {
         assert!(!spec.options(&chain).unwrap().unbend_when_short, "off by default, as in the library");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_short = true").unwrap();
         assert!(spec.options(&chain).unwrap().unbend_when_short);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
+        assert!(!spec.options(&chain).unwrap().uncalibrated_start_top, "off by default, as in the library");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nuncalibrated_start_top = true").unwrap();
+        assert!(spec.options(&chain).unwrap().uncalibrated_start_top);
         assert!(spec.options(&chain).unwrap().fine_forces, "on by default, as in the library");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = false").unwrap();
         assert!(!spec.options(&chain).unwrap().fine_forces);

@@ -189,6 +189,13 @@ pub struct Diagnosis {
     /// effect, the share of the error above the floor it explained, and its verdict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub short_plain: Option<ShortPlain>,
+    /// With `LoopOptions::uncalibrated_start_top`: the effects among the best stage-1 trials
+    /// whose second start, from the uncalibrated values, fitted better than the plain start
+    /// (the trial went on to stage 2 from it), in this search or one it replaced (a stuck or
+    /// short plain search, a second look's first). Empty when no second start won, or the
+    /// option is off: then the diagnosis is the one it would have been without the option.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub top_second_starts_won: Vec<EffectKind>,
     /// The transfer-path correction fitted to the calibrated model
     /// (`CompareOptions::path_correction_bands`); `None` when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -714,7 +721,23 @@ fn unbent_verdict(mut d2: Diagnosis, d: &Diagnosis, opts: &LoopOptions) -> Diagn
         }
     };
     d2.verdict = format!("{} ({why}: every trial started again from the uncalibrated values too; from the calibrated model alone: {})", d2.verdict, d.verdict);
+    carry_second_starts_won(&mut d2, d);
     d2
+}
+
+/// Adds to `d2` the effects whose top second start won in `d`, a search `d2` replaced
+/// ([`Diagnosis::top_second_starts_won`] covers every search of a diagnosis).
+fn carry_second_starts_won(d2: &mut Diagnosis, d: &Diagnosis) {
+    add_missing(&mut d2.top_second_starts_won, &d.top_second_starts_won);
+}
+
+/// Appends to `to` each effect of `from` it lacks, in order.
+fn add_missing(to: &mut Vec<EffectKind>, from: &[EffectKind]) {
+    for k in from {
+        if !to.contains(k) {
+            to.push(*k);
+        }
+    }
 }
 
 /// The one-realisation diagnosis `first` of `m` ([`diagnose_once`] with `unbend`), followed by
@@ -732,6 +755,7 @@ fn look_twice(first: (Machine, Diagnosis), m: &Machine, reference: &Reference, o
     // A second look after an unbent redo keeps what the plain search said.
     d2.stuck_plain_verdict = d.stuck_plain_verdict.clone();
     d2.short_plain = d.short_plain.clone();
+    carry_second_starts_won(&mut d2, &d);
     d2.second_look = Some(SecondLook { realisations: k, leader, verdict_with_one: d.verdict });
     Ok((cal, d2))
 }
@@ -740,6 +764,20 @@ fn look_twice(first: (Machine, Diagnosis), m: &Machine, reference: &Reference, o
 /// `m`, the calibrated model's comparison, its seed floor and its scatter.
 pub fn calibration_evaluations(m: &Machine, opts: &LoopOptions) -> usize {
     fit_evaluations(m, &calibration_parameters_for(m, opts), &[], opts.sweeps, opts) + 1 + FLOOR_SEEDS.len() + SCATTER_SEEDS.len()
+}
+
+/// The model evaluations of the second start of a trial of effect `k` on machine `m` (without
+/// it) that [`LoopOptions::uncalibrated_start`] and [`LoopOptions::uncalibrated_start_top`]
+/// add: from `m`'s uncalibrated values, the effect's main parameter scanned, then the plain
+/// trial's fit.
+pub fn scanned_start_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -> usize {
+    let mut t = m.clone();
+    t.effects.enable(k);
+    if k == EffectKind::PathModulation {
+        set_path_modulation_to_shaft_rate(&mut t);
+    }
+    let scan: Vec<Param> = Param::main_of_effect(k).into_iter().collect();
+    fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
 }
 
 /// The model evaluations of the plain stage-1 trial of effect `k` on machine `m` (without
@@ -845,7 +883,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 if unbent {
                     fit_evaluations(&t, &ps, &scan, 1, &second_start_opts)
                 } else {
-                    fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
+                    scanned_start_evaluations(m, k, opts)
                 }
             })
             .sum();
@@ -870,6 +908,23 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
         let summary = trial_summary(k, &ev, parameter, &extra, (env0, env), (j0, j));
         EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None, from_uncalibrated: false }
     };
+    // The plain trial's fit of `k` from `t` (the effect's parameters, then the noise level
+    // refined), each of `scan` first scanned on a grid; `reported` are the parameters besides
+    // the effect's that the trial carries (see `from_uncalibrated_scanned`).
+    let plain_fit = |k: EffectKind, t: Machine, scan: &[Param], reported: &[Param]| -> TrialOutcome {
+        t.validate().map_err(|e| e.to_string())?;
+        let (fm, f) = fit_trial_scanning(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, scan, opts, progress).map_err(|e| e.to_string())?;
+        Ok((make_trial(k, &fm, &f, reported), fm))
+    };
+    // The second start of `uncalibrated_start` (and `uncalibrated_start_top`): from the
+    // uncalibrated values, the effect's main parameter scanned, then the plain trial's fit (no
+    // calibration sweep). The trial carries the calibration parameters at those values too,
+    // so that applying it to the calibrated model ([`apply_trial`]) gives the machine it was
+    // scored with.
+    let from_uncalibrated_scanned = |k: EffectKind| -> TrialOutcome {
+        let (t, _, scan) = unbent_start(k);
+        plain_fit(k, t, &scan, &refined_and(&cal_params))
+    };
     // Stage 1: every candidate, its own parameters fitted and the noise level re-fitted (a
     // transfer-path effect re-does the calibration with it, see [`recalibrates`]).
     let outcomes: Vec<(EffectKind, TrialOutcome, TrialOutcome)> = candidates
@@ -884,14 +939,6 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
                 Ok((EffectTrial { from_uncalibrated: true, ..make_trial(k, &fm, &f, &released) }, fm))
             };
-            // The plain trial's fit from `t` (the effect's parameters, then the noise level
-            // refined), each of `scan` first scanned on a grid; `reported` are the parameters
-            // besides the effect's that the trial carries (see `from_uncalibrated_scanned`).
-            let plain_fit = |t: Machine, scan: &[Param], reported: &[Param]| -> TrialOutcome {
-                t.validate().map_err(|e| e.to_string())?;
-                let (fm, f) = fit_trial_scanning(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, scan, opts, progress).map_err(|e| e.to_string())?;
-                Ok((make_trial(k, &fm, &f, reported), fm))
-            };
             // From the calibrated model, the effect fitted and the noise level re-fitted.
             let from_calibrated = || -> TrialOutcome {
                 let mut t = cal_m.clone();
@@ -899,15 +946,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 if k == EffectKind::PathModulation {
                     set_path_modulation_to_shaft_rate(&mut t);
                 }
-                plain_fit(t, &plain_trial_scan(k, opts), &TRIAL_REFINE)
-            };
-            // From the uncalibrated values, the effect's main parameter scanned, then the
-            // plain trial's fit (no calibration sweep). The trial carries the calibration
-            // parameters at those values too, so that applying it to the calibrated model
-            // ([`apply_trial`]) gives the machine it was scored with.
-            let from_uncalibrated_scanned = || -> TrialOutcome {
-                let (t, _, scan) = unbent_start(k);
-                plain_fit(t, &scan, &refined_and(&cal_params))
+                plain_fit(k, t, &plain_trial_scan(k, opts), &TRIAL_REFINE)
             };
             // The plain trial: a recalibrating one from the uncalibrated values, any other from
             // the calibrated model; taken from an earlier search of this machine when it made
@@ -928,7 +967,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 let (a, b) = rayon::join(plain, || from_uncalibrated_with(&second_start_opts));
                 (better_start((a.clone(), b)), a)
             } else if scanned_start {
-                let (a, b) = rayon::join(plain, from_uncalibrated_scanned);
+                let (a, b) = rayon::join(plain, || from_uncalibrated_scanned(k));
                 (better_start((a.clone(), b)), a)
             } else {
                 let o = plain();
@@ -960,15 +999,29 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let n2 = opts.recalibrate_top.min(stage1.len());
     let rest = stage1.split_off(n2);
     let released = calibration_parameters_for(&cal_m, opts);
-    let stage2: Vec<(EffectTrial, Machine)> = stage1
+    // With `uncalibrated_start_top`, the best trials that started from the calibrated model
+    // only also start from the uncalibrated values, and the better fit goes on to the re-fit.
+    let top_second_start = |t: &EffectTrial| opts.uncalibrated_start_top && !unbent && !scanned_start && !recalibrates(t.effect) && !t.from_uncalibrated;
+    progress.expect(stage1.iter().filter(|(t, _)| top_second_start(t)).map(|(t, _)| scanned_start_evaluations(m, t.effect, opts)).sum());
+    let stage2: Vec<((EffectTrial, Machine), bool)> = stage1
         .into_par_iter()
-        .map(|(t1, fm)| match fit_trial(&fm, measured, &[], &released, opts, progress) {
-            Ok((fm2, f2)) if f2.objective_after < t1.objective_after => {
-                (EffectTrial { from_uncalibrated: t1.from_uncalibrated, ..make_trial(t1.effect, &fm2, &f2, &refined_and(&released)) }, fm2)
-            }
-            _ => (t1, fm),
+        .map(|(t1, fm)| {
+            // As in `better_start`: the second start must fit strictly better to replace it.
+            let ((t1, fm), won) = match top_second_start(&t1).then(|| from_uncalibrated_scanned(t1.effect)) {
+                Some(Ok((b, bm))) if b.objective_after < t1.objective_after => ((EffectTrial { from_uncalibrated: true, ..b }, bm), true),
+                _ => ((t1, fm), false),
+            };
+            let refitted = match fit_trial(&fm, measured, &[], &released, opts, progress) {
+                Ok((fm2, f2)) if f2.objective_after < t1.objective_after => {
+                    (EffectTrial { from_uncalibrated: t1.from_uncalibrated, ..make_trial(t1.effect, &fm2, &f2, &refined_and(&released)) }, fm2)
+                }
+                _ => (t1, fm),
+            };
+            (refitted, won)
         })
         .collect();
+    let top_second_starts_won: Vec<EffectKind> = stage2.iter().filter(|(_, won)| *won).map(|((t, _), _)| t.effect).collect();
+    let stage2: Vec<(EffectTrial, Machine)> = stage2.into_iter().map(|(x, _)| x).collect();
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
     }
@@ -1027,7 +1080,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
@@ -1211,9 +1264,21 @@ pub struct Round {
     /// searched again unbent (`LoopOptions::unbend_when_short`, [`Diagnosis::short_plain`]).
     #[serde(default)]
     pub unbent_when_short: bool,
+    /// With `LoopOptions::uncalibrated_start_top`: the effects whose second start won in the
+    /// round's diagnosis ([`Diagnosis::top_second_starts_won`]) or in a search of a candidate
+    /// replacement the stuck round tried. Empty: the round is the one it would have been
+    /// without the option.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub top_second_starts_won: Vec<EffectKind>,
 }
 
 impl Round {
+    /// Adds the effects whose top second start won in `d`, a search the round made besides its
+    /// own diagnosis ([`Round::top_second_starts_won`]).
+    fn note_second_starts_won(&mut self, d: &Diagnosis) {
+        add_missing(&mut self.top_second_starts_won, &d.top_second_starts_won);
+    }
+
     /// Whether the round re-fitted an applied effect in place (`removed == applied`,
     /// [`LoopOptions::refit_when_stuck`]) rather than replacing it.
     pub fn refitted(&self) -> bool {
@@ -1240,6 +1305,7 @@ impl Round {
             pinned: d.calibration.pinned(),
             unbent_when_stuck: d.stuck_plain_verdict.is_some(),
             unbent_when_short: d.short_plain.is_some(),
+            top_second_starts_won: d.top_second_starts_won.clone(),
             ..Default::default()
         }
     }
@@ -1634,6 +1700,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 // The effect taken out is not tried again (see `judge_replacement`).
                 exclude_candidates(&mut o, &swapped, &[a]);
                 let (cal2, d2) = diagnose_with(&swapped, &reference, &searched_plainly(&o), progress)?;
+                round.note_second_starts_won(&d2);
                 let j = judge_replacement(&d, a, b, &cal2, &d2);
                 if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
                     kept = Some((j.clone(), Replacement { machine: swapped, diagnosed: (cal2, d2), opts: o }));
@@ -1645,6 +1712,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 for a in refit_candidates(&history, &current) {
                     let refitted = refit_from_uncalibrated(&cal, m, a, &reference, &opts, progress)?;
                     let (cal2, d2) = diagnose_with(&refitted, &reference, &searched_plainly(&opts), progress)?;
+                    round.note_second_starts_won(&d2);
                     let j = judge_replacement(&d, a, a, &cal2, &d2);
                     if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
                         kept = Some((j.clone(), Replacement { machine: refitted, diagnosed: (cal2, d2), opts: opts.clone() }));

@@ -57,6 +57,11 @@ pub struct CaseResult {
     /// short answer was searched again unbent ([`super::diagnose::Diagnosis::short_plain`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub short_plain_chosen: Option<EffectKind>,
+    /// With `LoopOptions::uncalibrated_start_top`: the effects whose second start won
+    /// ([`super::diagnose::Diagnosis::top_second_starts_won`]); empty, the case is the one
+    /// the search without the option gives.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub top_second_starts_won: Vec<EffectKind>,
     /// What the true machine itself scores against the measurement ([`oracle`]).
     #[serde(default)]
     pub oracle: Oracle,
@@ -395,6 +400,7 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
         pinned: d.calibration.pinned(),
         unbent: d.unbent,
         short_plain_chosen: d.short_plain.as_ref().map(|s| s.chosen),
+        top_second_starts_won: d.top_second_starts_won.clone(),
         oracle,
         seconds: t0.elapsed().as_secs_f64(),
     })

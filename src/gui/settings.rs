@@ -68,6 +68,9 @@ pub struct Settings {
     /// Model loop: a diagnosis whose best trial explains under half the error above the floor
     /// is done again unbent (`LoopOptions::unbend_when_short`, experimental).
     pub loop_unbend_when_short: bool,
+    /// Model loop: the best three stage-1 trials also start from the uncalibrated values
+    /// before stage 2 (`LoopOptions::uncalibrated_start_top`, experimental).
+    pub loop_uncalibrated_start_top: bool,
     /// Model loop: a periodic force's amplitude is fitted with twice the line-search
     /// evaluations (`LoopOptions::fine_forces`, on by default).
     pub loop_fine_forces: bool,
@@ -109,6 +112,7 @@ impl Default for Settings {
             loop_scan_force_amplitudes: LoopOptions::default().scan_force_amplitudes,
             loop_unbend_when_stuck: LoopOptions::default().unbend_when_stuck,
             loop_unbend_when_short: LoopOptions::default().unbend_when_short,
+            loop_uncalibrated_start_top: LoopOptions::default().uncalibrated_start_top,
             loop_fine_forces: LoopOptions::default().fine_forces,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
             loop_polish_second_starts: LoopOptions::default().polish_second_starts,
@@ -176,6 +180,7 @@ impl Settings {
             scan_force_amplitudes: self.loop_scan_force_amplitudes,
             unbend_when_stuck: self.loop_unbend_when_stuck,
             unbend_when_short: self.loop_unbend_when_short,
+            uncalibrated_start_top: self.loop_uncalibrated_start_top,
             fine_forces: self.loop_fine_forces,
             polish_sweeps: self.loop_polish_sweeps,
             polish_second_starts: self.loop_polish_second_starts,
@@ -242,6 +247,7 @@ mod tests {
             loop_scan_force_amplitudes: false,
             loop_unbend_when_stuck: false,
             loop_unbend_when_short: true,
+            loop_uncalibrated_start_top: true,
             loop_fine_forces: false,
             loop_polish_sweeps: 0,
             loop_polish_second_starts: true,
