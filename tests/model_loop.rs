@@ -1000,6 +1000,19 @@ fn a_polished_calibration_reaches_the_true_parameters_where_coordinate_descent_s
     assert_eq!(polished_fit.evaluations - plain_fit.evaluations, 4 * params.len() * 6);
 }
 
+/// The seed-8508 case of the bearing base (a hidden 46 N misalignment), measured for 2 s: the
+/// model without it, the measurement, the true force (N), and options with the two forces as
+/// the only candidates and no second look.
+fn misalignment_case_8508() -> (model::Machine, twinscope::signal::Signal, f64, LoopOptions) {
+    let base = model::preset("mfs_inner").unwrap();
+    let (mut truth, model_m, true_param, _) = hidden::make_case(&base, Some(EffectKind::Misalignment), 8508);
+    let (_, true_force) = true_param.unwrap();
+    truth.duration_s = 2.0;
+    let measured = model::simulate(&truth).unwrap();
+    let opts = LoopOptions { candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment], random_effect_realisations: 0, ..Default::default() };
+    (model_m, measured, true_force, opts)
+}
+
 /// `LoopOptions::unbend_when_short` (experimental) on the seed-8508 case of the bearing base
 /// (docs/loop-notebook.md "Unbend when short"): a hidden 46 N misalignment the calibration
 /// absorbs without pinning anything (it shrinks the fault depth). From that calibration the
@@ -1009,12 +1022,7 @@ fn a_polished_calibration_reaches_the_true_parameters_where_coordinate_descent_s
 /// evaluation it makes. Candidates: the two forces only.
 #[test]
 fn a_short_answer_is_searched_again_unbent_and_finds_the_absorbed_force() {
-    let base = model::preset("mfs_inner").unwrap();
-    let (mut truth, model_m, true_param, _) = hidden::make_case(&base, Some(EffectKind::Misalignment), 8508);
-    let (_, true_force) = true_param.unwrap();
-    truth.duration_s = 2.0;
-    let measured = model::simulate(&truth).unwrap();
-    let opts = LoopOptions { candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment], random_effect_realisations: 0, ..Default::default() };
+    let (model_m, measured, true_force, opts) = misalignment_case_8508();
     let (plain, plain_calls, plain_expected) = diagnose_counting(&model_m, &measured, &opts);
     eprintln!("plain: pinned {:?}; {}", plain.calibration.at_bound, plain.verdict);
     assert_eq!(plain_calls, plain_expected);
@@ -1052,12 +1060,7 @@ fn a_short_answer_is_searched_again_unbent_and_finds_the_absorbed_force() {
 #[test]
 fn a_second_start_for_the_top_trials_finds_the_force_a_moved_calibration_hides() {
     use twinscope::compare::diagnose::scanned_start_evaluations;
-    let base = model::preset("mfs_inner").unwrap();
-    let (mut truth, model_m, true_param, _) = hidden::make_case(&base, Some(EffectKind::Misalignment), 8508);
-    let (_, true_force) = true_param.unwrap();
-    truth.duration_s = 2.0;
-    let measured = model::simulate(&truth).unwrap();
-    let opts = LoopOptions { candidates: vec![EffectKind::Unbalance, EffectKind::Misalignment], random_effect_realisations: 0, ..Default::default() };
+    let (model_m, measured, true_force, opts) = misalignment_case_8508();
     let (plain, plain_calls, _) = diagnose_counting(&model_m, &measured, &opts);
     assert_eq!(plain.best, Some(EffectKind::Unbalance), "{}", plain.verdict);
     assert!(plain.top_second_starts_won.is_empty());
