@@ -721,14 +721,9 @@ fn unbent_verdict(mut d2: Diagnosis, d: &Diagnosis, opts: &LoopOptions) -> Diagn
         }
     };
     d2.verdict = format!("{} ({why}: every trial started again from the uncalibrated values too; from the calibrated model alone: {})", d2.verdict, d.verdict);
-    carry_second_starts_won(&mut d2, d);
-    d2
-}
-
-/// Adds to `d2` the effects whose top second start won in `d`, a search `d2` replaced
-/// ([`Diagnosis::top_second_starts_won`] covers every search of a diagnosis).
-fn carry_second_starts_won(d2: &mut Diagnosis, d: &Diagnosis) {
+    // `top_second_starts_won` covers every search of a diagnosis, the one replaced too.
     add_missing(&mut d2.top_second_starts_won, &d.top_second_starts_won);
+    d2
 }
 
 /// Appends to `to` each effect of `from` it lacks, in order.
@@ -755,7 +750,7 @@ fn look_twice(first: (Machine, Diagnosis), m: &Machine, reference: &Reference, o
     // A second look after an unbent redo keeps what the plain search said.
     d2.stuck_plain_verdict = d.stuck_plain_verdict.clone();
     d2.short_plain = d.short_plain.clone();
-    carry_second_starts_won(&mut d2, &d);
+    add_missing(&mut d2.top_second_starts_won, &d.top_second_starts_won);
     d2.second_look = Some(SecondLook { realisations: k, leader, verdict_with_one: d.verdict });
     Ok((cal, d2))
 }
@@ -771,13 +766,19 @@ pub fn calibration_evaluations(m: &Machine, opts: &LoopOptions) -> usize {
 /// add: from `m`'s uncalibrated values, the effect's main parameter scanned, then the plain
 /// trial's fit.
 pub fn scanned_start_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -> usize {
+    let (t, scan) = uncalibrated_start_of(m, k);
+    fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
+}
+
+/// A trial's start from the uncalibrated values: `m` with effect `k` on (a path modulation
+/// at the shaft rate), and the parameter scanned on a grid first (the effect's main one).
+fn uncalibrated_start_of(m: &Machine, k: EffectKind) -> (Machine, Vec<Param>) {
     let mut t = m.clone();
     t.effects.enable(k);
     if k == EffectKind::PathModulation {
         set_path_modulation_to_shaft_rate(&mut t);
     }
-    let scan: Vec<Param> = Param::main_of_effect(k).into_iter().collect();
-    fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
+    (t, Param::main_of_effect(k).into_iter().collect())
 }
 
 /// The model evaluations of the plain stage-1 trial of effect `k` on machine `m` (without
@@ -859,13 +860,8 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     // always; every trial when unbent): the round's uncalibrated machine with the effect on,
     // its main parameter scanned on a grid.
     let unbent_start = |k: EffectKind| -> (Machine, Vec<Param>, Vec<Param>) {
-        let mut t = m.clone();
-        t.effects.enable(k);
-        if k == EffectKind::PathModulation {
-            set_path_modulation_to_shaft_rate(&mut t);
-        }
+        let (t, scan) = uncalibrated_start_of(m, k);
         let ps = recalibration_parameters(k, &t, opts);
-        let scan: Vec<Param> = Param::main_of_effect(k).into_iter().collect();
         (t, ps, scan)
     };
     // The second start of every plain trial: unbending's (with a calibration sweep), or the
@@ -879,8 +875,8 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             .iter()
             .filter(|k| !recalibrates(**k))
             .map(|&k| {
-                let (t, ps, scan) = unbent_start(k);
                 if unbent {
+                    let (t, ps, scan) = unbent_start(k);
                     fit_evaluations(&t, &ps, &scan, 1, &second_start_opts)
                 } else {
                     scanned_start_evaluations(m, k, opts)
