@@ -288,13 +288,18 @@ struct SearchArgs {
     /// Costs the unbent search in such rounds only. Experimental, off by default.
     #[arg(long)]
     unbend_when_short: bool,
-    /// Start the best three stage-1 trials (those stage 2 re-fits) also from the uncalibrated
-    /// values, their effect scanned, and keep the better fit before stage 2: for a calibration
-    /// that moved a base parameter far toward what is missing without pinning it, which
-    /// stage 2's local re-fit cannot undo (docs/loop-notebook.md "A second start for the top
-    /// trials"). About three plain trials more, in searches that are not unbent.
-    /// Experimental, off by default.
+    /// Do not start the best three stage-1 trials (those stage 2 re-fits) also from the
+    /// uncalibrated values. By default they are (their effect scanned, then the plain trial's
+    /// fit) and the better fit goes on to stage 2: for a calibration that moved a base
+    /// parameter far toward what is missing without pinning it, which stage 2's local re-fit
+    /// cannot undo (docs/loop-notebook.md "A second start for the top trials" and "… as the
+    /// default: the suite again"). Saves about three plain trials in searches that are not
+    /// unbent, and misses what such a calibration hides.
     #[arg(long)]
+    no_uncalibrated_start_top: bool,
+    /// The default since session 48 (see --no-uncalibrated-start-top); accepted so that older
+    /// commands run unchanged.
+    #[arg(long, hide = true, conflicts_with = "no_uncalibrated_start_top")]
     uncalibrated_start_top: bool,
     /// Fit a periodic force's amplitude (unbalance, misalignment, belt) with the plain line
     /// search's evaluations only, not twice them (the default: to about 0.5 % instead of ±18 %,
@@ -402,7 +407,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: self.uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         o
@@ -735,7 +740,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     } else if opts.uncalibrated_start {
         println!("  the trials also started from the uncalibrated values, their effect scanned (--uncalibrated-start)");
     } else if opts.uncalibrated_start_top {
-        println!("  the best three trials also started from the uncalibrated values, their effect scanned (--uncalibrated-start-top)");
+        println!("  the best three trials also started from the uncalibrated values, their effect scanned (the default; --no-uncalibrated-start-top turns this off)");
     } else if !cal.at_bound.is_empty() {
         println!("  (the trials started only from this bent calibration: --no-unbend)");
     }

@@ -218,14 +218,16 @@ fn polish_sweeps_out_of_range_are_refused_before_any_work() {
     }
 }
 
-/// The defaults of session 44 (one SCF normaliser, the polish of the baselines only) are
-/// switched off by `--scf-slice-normalisers` and `--polish-second-starts`; the old flags that
-/// asked for them are still accepted, and asking for both ways at once is refused by name.
+/// The defaults of session 44 (one SCF normaliser, the polish of the baselines only) and of
+/// session 48 (the second start for the top trials) are switched off by
+/// `--scf-slice-normalisers`, `--polish-second-starts` and `--no-uncalibrated-start-top`; the
+/// old flags that asked for them are still accepted, and asking for both ways at once is
+/// refused by name.
 #[test]
 fn the_old_search_flags_are_accepted_and_contradictions_refused() {
     let measured = cwru("105_de_inner_007_0hp_12k.mat");
     let m = measured.to_str().unwrap();
-    for (new, old) in [("--scf-slice-normalisers", "--scf-one-normaliser"), ("--polish-second-starts", "--no-polish-second-starts")] {
+    for (new, old) in [("--scf-slice-normalisers", "--scf-one-normaliser"), ("--polish-second-starts", "--no-polish-second-starts"), ("--no-uncalibrated-start-top", "--uncalibrated-start-top")] {
         assert_clean_failure(&run(&["diagnose", m, "--preset", "cwru_6205_inner", new, old]), &[new, old]);
         assert_clean_failure(&run(&["confusion", "--controls", "1", new, old]), &[new, old]);
         // Each alone parses: the run then fails on the preset, after the flags were read.

@@ -492,11 +492,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("unbend when short: a search whose best explains under half the error starts every trial again from the uncalibrated values (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).unbend_when_short);
-    // The experimental second start for the top trials: off until ticked.
-    assert!(!o.uncalibrated_start_top);
-    h.get_by_label("second start for the top trials: the best three trials also start from the uncalibrated values before their re-fit (experimental)").click_accesskit();
+    // The second start for the top trials: on by default (since session 48) until unticked.
+    assert!(o.uncalibrated_start_top, "on by default");
+    h.get_by_label("second start for the top trials: the best three trials also start from the uncalibrated values before their re-fit").click_accesskit();
     h.run_steps(3);
-    assert!(h.state().settings.loop_options(Default::default()).uncalibrated_start_top);
+    assert!(!h.state().settings.loop_options(Default::default()).uncalibrated_start_top);
     // The floor margin of the decision: the library's default until changed.
     assert_eq!(o.floor_margin, 0.3);
     set(&mut h, "floor margin", 0.2);

@@ -205,7 +205,7 @@ pub struct LoopSpec {
     /// library's.
     pub unbend_when_short: bool,
     /// The best three stage-1 trials also start from the uncalibrated values before stage 2
-    /// (`LoopOptions::uncalibrated_start_top`, experimental). Default: the library's (off).
+    /// (`LoopOptions::uncalibrated_start_top`). Default: the library's (on since session 48).
     pub uncalibrated_start_top: bool,
     /// A periodic force's amplitude is fitted with twice the line-search evaluations
     /// (`LoopOptions::fine_forces`). Default: the library's.
@@ -609,9 +609,9 @@ mod tests {
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nunbend_when_short = true").unwrap();
         assert!(spec.options(&chain).unwrap().unbend_when_short);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
-        assert!(!spec.options(&chain).unwrap().uncalibrated_start_top, "off by default, as in the library");
-        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nuncalibrated_start_top = true").unwrap();
-        assert!(spec.options(&chain).unwrap().uncalibrated_start_top);
+        assert!(spec.options(&chain).unwrap().uncalibrated_start_top, "on by default, as in the library");
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nuncalibrated_start_top = false").unwrap();
+        assert!(!spec.options(&chain).unwrap().uncalibrated_start_top);
         assert!(spec.options(&chain).unwrap().fine_forces, "on by default, as in the library");
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_forces = false").unwrap();
         assert!(!spec.options(&chain).unwrap().fine_forces);

@@ -421,8 +421,9 @@ pub struct LoopOptions {
     /// a 46 N misalignment, seed 8508; a load zone fitted at 565 N for a true 265 N beside a
     /// misalignment, pair seed 8800), and stage 2's re-fit, local to ± 25 % of each range,
     /// cannot move it back; from the uncalibrated values the trial can. Costs about three
-    /// plain trials, in searches that are not unbent. Default: off (experimental, session 46;
-    /// docs/loop-notebook.md "A second start for the top trials").
+    /// plain trials, in searches that are not unbent. Default: on since session 48
+    /// (experimental in session 46; docs/loop-notebook.md "A second start for the top trials"
+    /// and "… as the default: the suite again").
     pub uncalibrated_start_top: bool,
     /// A periodic force's amplitude ([`Param::periodic_force_amplitude`]) is fitted with twice
     /// the evaluations in the golden section of its full-range line search: with 9 over the
@@ -577,7 +578,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.3, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: false, fine_forces: true, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.3, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -69,7 +69,7 @@ pub struct Settings {
     /// is done again unbent (`LoopOptions::unbend_when_short`, experimental).
     pub loop_unbend_when_short: bool,
     /// Model loop: the best three stage-1 trials also start from the uncalibrated values
-    /// before stage 2 (`LoopOptions::uncalibrated_start_top`, experimental).
+    /// before stage 2 (`LoopOptions::uncalibrated_start_top`, on by default since session 48).
     pub loop_uncalibrated_start_top: bool,
     /// Model loop: a periodic force's amplitude is fitted with twice the line-search
     /// evaluations (`LoopOptions::fine_forces`, on by default).
@@ -247,7 +247,7 @@ mod tests {
             loop_scan_force_amplitudes: false,
             loop_unbend_when_stuck: false,
             loop_unbend_when_short: true,
-            loop_uncalibrated_start_top: true,
+            loop_uncalibrated_start_top: false,
             loop_fine_forces: false,
             loop_polish_sweeps: 0,
             loop_polish_second_starts: true,

@@ -177,7 +177,7 @@ impl ModelLoopView {
                 .on_hover_text("a calibration can bend the model to do without what is missing without reaching an edge of any range; this costs a second search, in stuck rounds only");
             ui.checkbox(&mut s.loop_unbend_when_short, "unbend when short: a search whose best explains under half the error starts every trial again from the uncalibrated values (experimental)")
                 .on_hover_text("a calibration that absorbed a strong force can leave a stand-in ranked first that explains little (a misalignment answered by an unbalance); this costs a second search, in such rounds only");
-            ui.checkbox(&mut s.loop_uncalibrated_start_top, "second start for the top trials: the best three trials also start from the uncalibrated values before their re-fit (experimental)")
+            ui.checkbox(&mut s.loop_uncalibrated_start_top, "second start for the top trials: the best three trials also start from the uncalibrated values before their re-fit")
                 .on_hover_text("a calibration can move a base parameter far toward a missing force without pinning it, and the re-fit of the best trials is local; this costs about three trials more, in searches that are not unbent");
             let mut all = s.loop_candidates.is_empty();
             if ui.checkbox(&mut all, "try every applicable effect the model lacks").changed() {
