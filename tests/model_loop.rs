@@ -343,7 +343,7 @@ fn an_effect_standing_in_for_two_is_replaced_when_the_loop_is_stuck() {
     // fine force fit (the defaults since session 40) are off too: with the scan, round 1's
     // plain trial fits the misalignment itself and there is no stand-in to replace (the next
     // test; docs/loop-notebook.md "Scanned forces by default?").
-    // The second start for the top trials (experimental) is off too: with it round 1 takes the
+    // The second start for the top trials (the default since session 48) is off too: with it round 1 takes the
     // misalignment (42.47 N for 42.62 N) and round 2 the path modulation (0.307 for 0.342),
     // the pair complete with no stand-in (docs/loop-notebook.md "A second start for the top
     // trials as the default: the suite").
@@ -480,8 +480,8 @@ fn an_uncalibrated_start_finds_the_load_a_bent_but_unpinned_calibration_hides() 
     assert!((0.5..2.0).contains(&(load(&started) / true_load)), "from the uncalibrated values {:.1} N, true {true_load:.1} N", load(&started));
     assert!(started.objective_after < 0.8 * plain.objective_after, "{:.2} against {:.2}", started.objective_after, plain.objective_after);
     assert!(!plain.from_uncalibrated && started.from_uncalibrated, "the trial says which start won");
-    // The second start for the top trials (`LoopOptions::uncalibrated_start_top`,
-    // experimental) gives the top trials alone that start: here the load zone's, which wins
+    // The second start for the top trials (`LoopOptions::uncalibrated_start_top`, the
+    // default since session 48) gives the top trials alone that start: here the load zone's, which wins
     // (86.5 N for 76.9 N in session 47), in a search that is not unbent.
     let opts = LoopOptions { uncalibrated_start_top: true, candidates: vec![EffectKind::LoadZone], random_effect_realisations: 0, ..Default::default() };
     let (_, d) = twinscope::compare::diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
@@ -928,7 +928,7 @@ fn a_stuck_second_look_after_a_search_that_was_not_stuck_is_unbent_both_times() 
     opts.polish_second_starts = true;
     opts.compare.scf_one_normaliser = false;
     opts.floor_margin = 0.5;
-    // Nor the second start for the top trials (experimental since session 46): with it the
+    // Nor the second start for the top trials (the default since session 48): with it the
     // two-realisation search chooses slip and is not stuck.
     opts.uncalibrated_start_top = false;
     opts.significance = 0.13;
@@ -1093,7 +1093,7 @@ fn a_short_answer_is_searched_again_unbent_and_finds_the_absorbed_force() {
     assert_eq!(calls, 2 * plain_calls - calibration - plain_trials + second_starts);
 }
 
-/// `LoopOptions::uncalibrated_start_top` (experimental) on the same seed-8508 case
+/// `LoopOptions::uncalibrated_start_top` (the default since session 48) on the same seed-8508 case
 /// (docs/loop-notebook.md "A second start for the top trials"): the calibration moves the
 /// fault depth far to do without the misalignment, pinning nothing, and stage 2's local
 /// re-fit cannot move it back. With the option the best trials also start from the
