@@ -804,7 +804,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         std::fs::write(p, final_m.to_toml())?;
     }
     if !quiet {
-        eprintln!("twinscope: diagnose took {:.1} s", started.elapsed().as_secs_f64());
+        let (reused, integrated) = model::loop_cache_stats();
+        eprintln!("twinscope: diagnose took {:.1} s; {integrated} model integrations, {reused} evaluations reused one (the same machine under other measurement effects or another seed it does not draw on)", started.elapsed().as_secs_f64());
     }
     Ok(())
 }

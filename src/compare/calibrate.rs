@@ -622,7 +622,7 @@ pub fn evaluate(m: &Machine, reference: &Reference, opts: &LoopOptions) -> Resul
             if k > 0 {
                 r.seed = mm.seed ^ (REALISATION_SALT + k);
             }
-            model::simulate(&r)
+            model::simulate_cached(&r)
         })
         .collect::<Result<_, _>>()?;
     let mut c = reference.compare_mean(&sims)?;

@@ -383,7 +383,7 @@ pub fn seed_floor(m: &Machine, like: &Signal, against: &Comparison, opts: &LoopO
         .map(|&s| {
             let mut twin = reseeded(m, s);
             twin.duration_s = opts.fit_duration_s.min(like.duration_s());
-            let mut pseudo = crate::model::simulate(&twin)?;
+            let mut pseudo = crate::model::simulate_cached(&twin)?;
             pseudo.unit = like.unit.clone();
             pseudo.meta.shaft_speed_hz = like.meta.shaft_speed_hz.or(pseudo.meta.shaft_speed_hz);
             let r = Reference::new(&pseudo, &opts.compare)?;

@@ -48,6 +48,10 @@ pub struct Model {
     pub q_guess: Vec<f64>,
     /// Mean speed of each shaft, Hz.
     pub shaft_speeds_hz: Vec<f64>,
+    /// Whether assembling drew random numbers from the machine's seed (slip tables, rough
+    /// extended faults): only then does the seed shape the integrated signal, not just the
+    /// measurement noise added after it.
+    pub seeded_assembly: bool,
 }
 
 impl Model {
@@ -287,7 +291,9 @@ impl Model {
             antialias: m.sensor.antialias.clone(),
         };
         q_guess.resize(sys.n(), 0.0);
-        Ok(Model { machine: m.clone(), system: sys, sensor, post, q_guess, shaft_speeds_hz: speeds })
+        // Any draw moves the generator: the word position tells whether one was made.
+        let seeded_assembly = rng.get_word_pos() != 0;
+        Ok(Model { machine: m.clone(), system: sys, sensor, post, q_guess, shaft_speeds_hz: speeds, seeded_assembly })
     }
 
     /// The bearing elements' fault locations (for labelling), by bearing name.

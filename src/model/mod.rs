@@ -12,6 +12,7 @@
 
 mod assemble;
 mod bearing;
+mod cache;
 mod effects;
 mod error;
 mod gear;
@@ -20,12 +21,13 @@ mod simulate;
 mod system;
 
 pub use assemble::{Model, PostProcessing, SensorMix, STANDARD_GRAVITY};
+pub use cache::{integration_key, loop_cache_stats, simulate_cached, SimulationCache};
 pub use bearing::{BearingElement, BearingFault, ContactLaw, DepthProfile, ShaftMotion};
 pub use effects::*;
 pub use error::ModelError;
 pub use gear::{GearMeshElement, MeshStiffness, OrderForce};
 pub use machine::{AntiAliasFilter, Bearing, Coupling, DrivenBy, FaultLocation, GearPairSpec, LocalFault, Machine, Sensor, Shaft};
-pub use simulate::{coloured_noise, post_process, run, sensor_lowpass, Simulator, StepResult};
+pub use simulate::{coloured_noise, finish, post_process, run, run_raw, sensor_lowpass, Simulator, StepResult};
 pub use system::{ForceElement, Spring, System};
 
 use crate::signal::Signal;

@@ -171,7 +171,15 @@ impl<'a> Simulator<'a> {
 /// Runs a model: settles for `settle_s`, records `duration_s` of the sensor at `fs_hz`, then
 /// applies the measurement effects. `progress(fraction)` is called about 100 times; returning
 /// `false` cancels. A divergence stops with an error; no NaN is ever returned.
-pub fn run(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Signal, ModelError> {
+pub fn run(model: &Model, progress: impl FnMut(f64) -> bool) -> Result<Signal, ModelError> {
+    let raw = run_raw(model, progress)?;
+    finish(model, &raw)
+}
+
+/// The integration part of [`run`]: the sensor signal at `fs_hz` after settling, decimated
+/// through the anti-alias low-pass, before the measurement effects
+/// ([`PostProcessing`]). `progress` as in [`run`].
+pub fn run_raw(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Vec<f64>, ModelError> {
     let m = &model.machine;
     let mut sim = Simulator::new(model)?;
     let settle = (m.settle_s * m.fs_hz).round() as usize;
@@ -203,7 +211,14 @@ pub fn run(model: &Model, mut progress: impl FnMut(f64) -> bool) -> Result<Signa
     } else {
         fine
     };
-    let y = post_process(&out, m.fs_hz, &model.post, m.seed)?;
+    Ok(out)
+}
+
+/// The measurement part of [`run`]: applies the model's measurement effects to a signal from
+/// [`run_raw`] and labels it.
+pub fn finish(model: &Model, raw: &[f64]) -> Result<Signal, ModelError> {
+    let m = &model.machine;
+    let y = post_process(raw, m.fs_hz, &model.post, m.seed)?;
     let mut s = Signal::new(y, m.fs_hz, format!("{} (simulated)", m.name), m.sensor.unit.clone());
     s.meta.shaft_speed_hz = model.shaft_speeds_hz.first().copied();
     s.meta.source = Some(format!("twinscope model `{}`", m.name));
