@@ -242,6 +242,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         // One full search with `opts` (the CWRU demodulation band set here), timed once.
         let mut search_row = |mut opts: LoopOptions, name: String| -> Result<()> {
             opts.compare.envelope_band_hz = [1800.0, 3000.0];
+            // Each search starts with nothing integrated: one row's integrations must not
+            // speed up the next.
+            twinscope::model::clear_loop_cache();
             let ms = median_ms(1, || Ok(diagnose(&m, &meas, &opts, &|_, _| true).map(|_| ())?))?;
             rows.push(Row { name, ours_ms: ms, reference: "-", reference_key: None });
             Ok(())
@@ -250,6 +253,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             let opts = LoopOptions { candidates: all[..n.min(all.len())].to_vec(), ..Default::default() };
             search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {n} candidate effects (calibrate + trials)", meas.duration_s()))?;
         }
+        // The same full search with every evaluation integrating its machine (no reuse of an
+        // integration across measurement effects or seeds: the search before session 50).
+        twinscope::model::set_loop_cache_enabled(false);
+        let opts = LoopOptions { candidates: all.clone(), ..Default::default() };
+        search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, every evaluation integrated (no reused integration, as before session 50)", meas.duration_s(), all.len()))?;
+        twinscope::model::set_loop_cache_enabled(true);
         // The same full search without the unbent redo of a stuck search (the default since
         // session 31; on a real record, far above its floor, it always acts).
         let opts = LoopOptions { candidates: all.clone(), unbend_when_stuck: false, ..Default::default() };

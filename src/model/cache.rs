@@ -18,7 +18,7 @@ use crate::signal::Signal;
 use std::collections::hash_map::DefaultHasher;
 use std::collections::VecDeque;
 use std::hash::{Hash, Hasher};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, LazyLock, Mutex};
 
 /// Integrated signals, least recently used first out, within a memory budget.
@@ -67,6 +67,11 @@ impl SimulationCache {
         let out = finish(&model, &raw);
         self.insert(Entry { hash, key, raw });
         out
+    }
+
+    /// Forgets every signal (the counts are kept).
+    pub fn clear(&self) {
+        self.entries.lock().unwrap_or_else(|e| e.into_inner()).clear();
     }
 
     /// (hits, misses) so far.
@@ -127,10 +132,29 @@ pub fn integration_key(model: &Model) -> String {
 /// each at 12 kHz, so several hundred fit).
 static LOOP_SIMULATIONS: LazyLock<SimulationCache> = LazyLock::new(|| SimulationCache::new(128 << 20));
 
+/// Whether [`simulate_cached`] uses the process's cache (on unless
+/// [`set_loop_cache_enabled`] turned it off: `twinscope bench` times the search both ways).
+static LOOP_CACHE_ON: AtomicBool = AtomicBool::new(true);
+
 /// [`super::simulate`] through the process's loop cache ([`SimulationCache`]): what the
 /// calibration and the missing-effect search call for every evaluation.
 pub fn simulate_cached(machine: &Machine) -> Result<Signal, ModelError> {
-    LOOP_SIMULATIONS.simulate(machine)
+    if LOOP_CACHE_ON.load(Ordering::Relaxed) {
+        LOOP_SIMULATIONS.simulate(machine)
+    } else {
+        super::simulate(machine)
+    }
+}
+
+/// Turns the process's loop cache on or off (off: every evaluation integrates, as before the
+/// cache; the results are the same either way).
+pub fn set_loop_cache_enabled(on: bool) {
+    LOOP_CACHE_ON.store(on, Ordering::Relaxed);
+}
+
+/// Empties the process's loop cache (its counts are kept).
+pub fn clear_loop_cache() {
+    LOOP_SIMULATIONS.clear();
 }
 
 /// (hits, misses) of the process's loop cache.

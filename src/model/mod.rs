@@ -21,7 +21,7 @@ mod simulate;
 mod system;
 
 pub use assemble::{Model, PostProcessing, SensorMix, STANDARD_GRAVITY};
-pub use cache::{integration_key, loop_cache_stats, simulate_cached, SimulationCache};
+pub use cache::{clear_loop_cache, integration_key, loop_cache_stats, set_loop_cache_enabled, simulate_cached, SimulationCache};
 pub use bearing::{BearingElement, BearingFault, ContactLaw, DepthProfile, ShaftMotion};
 pub use effects::*;
 pub use error::ModelError;
