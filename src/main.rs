@@ -288,6 +288,14 @@ struct SearchArgs {
     /// Costs the unbent search in such rounds only. Experimental, off by default.
     #[arg(long)]
     unbend_when_short: bool,
+    /// Give a scanned force's amplitude (unbalance, misalignment, belt) a second, finer grid
+    /// inside the best cell of the first before its golden section: a force can fit in a
+    /// notch a few per cent wide that the golden section of a coarse cell steps over
+    /// (docs/loop-notebook.md "The short misalignment of 9208: a notch the golden section
+    /// straddles"). One more grid per scanned force, evaluated in parallel. Experimental, off
+    /// by default.
+    #[arg(long)]
+    fine_force_scan: bool,
     /// Do not start the best three stage-1 trials (those stage 2 re-fits) also from the
     /// uncalibrated values. By default they are (their effect scanned, then the plain trial's
     /// fit) and the better fit goes on to stage 2: for a calibration that moved a base
@@ -407,7 +415,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         o

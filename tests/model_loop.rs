@@ -1126,3 +1126,36 @@ fn a_second_start_for_the_top_trials_finds_the_force_a_moved_calibration_hides()
     let round = twinscope::compare::Round::of_diagnosis(1, model_m.effects.enabled(), &top, 0.0);
     assert_eq!(round.top_second_starts_won, top.top_second_starts_won);
 }
+
+/// `LoopOptions::fine_force_scan` (experimental) on the misalignment of fresh bearing seed
+/// 9208 (41.9 N at 7.1 dB): from the uncalibrated values, as the search's second start does,
+/// the force's objective holds its minimum in a notch (40.6–44.5 N) inside the coarse grid's
+/// cell 18.6–56.0 N, and the golden section of that cell steps over it to a shoulder at
+/// 31 N. The second grid lands in the notch (docs/loop-notebook.md "The short misalignment of
+/// 9208: a notch the golden section straddles").
+#[test]
+fn a_second_force_grid_finds_the_notch_the_golden_section_steps_over() {
+    use twinscope::compare::calibrate::{fit_trial_scanning, fit_trial_scanning_evaluations, LoopProgress};
+    let base = model::preset("mfs_inner").unwrap();
+    let (mut truth, mut start, truths, _) = hidden::make_case_set(&base, &[EffectKind::Misalignment], 9208, &hidden::CaseSetting::default());
+    truth.duration_s = 2.0;
+    let measured = model::simulate(&truth).unwrap();
+    let true_force = truths[0].1;
+    start.effects.enable(EffectKind::Misalignment);
+    let ps = [Param::Misalignment2xN];
+    let refine = [Param::NoiseSnrDb];
+    let run = |fine_force_scan: bool| {
+        let opts = LoopOptions { fine_force_scan, ..Default::default() };
+        let reference = Reference::new(&measured, &opts.compare).unwrap();
+        let (m, f) = fit_trial_scanning(&start, &reference, &ps, &refine, &ps, &opts, &LoopProgress::new(&|_, _| true)).unwrap();
+        assert_eq!(f.evaluations, fit_trial_scanning_evaluations(&start, &ps, &refine, &ps, &opts), "fine_force_scan {fine_force_scan}: the count the progress expects");
+        (Param::Misalignment2xN.get(&m).unwrap() / true_force, f.objective_after, f.evaluations)
+    };
+    let (coarse, j_coarse, n_coarse) = run(false);
+    let (fine, j_fine, n_fine) = run(true);
+    eprintln!("true {true_force:.2} N; one grid {coarse:.4} × ({j_coarse:.3}, {n_coarse} evaluations); two grids {fine:.4} × ({j_fine:.3}, {n_fine} evaluations)");
+    assert!(coarse < 0.85, "the premise: one grid stops short of the notch ({coarse:.4} ×)");
+    assert!((fine - 1.0).abs() < 0.02, "two grids: {fine:.4} × the true force");
+    assert!(j_fine < 0.7 * j_coarse, "the notch is deep: {j_fine:.3} against {j_coarse:.3}");
+    assert_eq!(n_fine - n_coarse, 2 * LoopOptions::default().evaluations_per_parameter, "one more grid of 2n points");
+}

@@ -437,6 +437,17 @@ pub struct LoopOptions {
     /// written before its runs (docs/loop-notebook.md "Scanned and fine forces together by
     /// default?"; the mechanism: "Fine forces").
     pub fine_forces: bool,
+    /// A scanned periodic force's amplitude ([`Param::periodic_force_amplitude`]) gets a
+    /// second grid of `2 × evaluations_per_parameter` points inside the best cell of the
+    /// first (a cell spans a factor of 1.7 on the default range), and the golden section then
+    /// refines inside the best cell of that one. A force's objective can hold its minimum in
+    /// a notch a few per cent wide, which the golden section's first two probes of a coarse
+    /// cell straddle: seed 9208's 41.9 N misalignment sits in such a notch, 40.6–44.5 N, and
+    /// the golden section of the cell 18.6–56.0 N left it for a shoulder at 31.3 N
+    /// (docs/loop-notebook.md "The short misalignment of 9208: a notch the golden section
+    /// straddles"). Costs one more grid (evaluated in parallel) per scanned force. Default:
+    /// off (experimental, session 50).
+    pub fine_force_scan: bool,
     /// Sweeps of a polish after every full-range fit (the calibration, a trial that re-does
     /// the calibration with its effect, a start from the uncalibrated values unless
     /// [`LoopOptions::polish_second_starts`] is off): each fitted
@@ -578,7 +589,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.3, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.3, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 
@@ -694,8 +705,26 @@ pub fn fit_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: us
 
 /// [`fit_evaluations`] without the polish.
 fn sweep_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
+    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| grid_evaluations(*p, scan, opts) + golden_evaluations(*p, opts)).sum::<usize>()
+}
+
+/// Evaluations of a full-range line search's grids before its golden section: `2n` for a
+/// scanned parameter, `2n` more for a force's second grid with
+/// [`LoopOptions::fine_force_scan`].
+fn grid_evaluations(p: Param, scan: &[Param], opts: &LoopOptions) -> usize {
     let n = line_evaluations(opts);
-    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| if p.multimodal() || scan.contains(p) { 2 * n } else { 0 } + golden_evaluations(*p, opts)).sum::<usize>()
+    if !(p.multimodal() || scan.contains(&p)) {
+        0
+    } else if fine_grid(p, opts) {
+        4 * n
+    } else {
+        2 * n
+    }
+}
+
+/// Whether a scanned `p` gets the second grid of [`LoopOptions::fine_force_scan`].
+fn fine_grid(p: Param, opts: &LoopOptions) -> bool {
+    opts.fine_force_scan && p.periodic_force_amplitude()
 }
 
 /// Evaluations of the golden section of a full-range line search of `p` (after its grid, if
@@ -913,6 +942,23 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
             if !(a..=b).contains(&u0) {
                 // The refinement bracket must hold the incumbent golden() starts from.
                 (u0, j0) = (grid[i], js[i]);
+            }
+            if fine_grid(p, opts) {
+                // The second grid, inside the best cell (see `LoopOptions::fine_force_scan`).
+                let fine: Vec<f64> = (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect();
+                let scanned: Vec<Option<(f64, Comparison, f64)>> = fine.par_iter().map(|&u| evaluate_at(u)).collect();
+                evals += fine.len();
+                let js: Vec<f64> = scanned.iter().map(|r| r.as_ref().map_or(f64::INFINITY, |r| r.0)).collect();
+                cache.extend(fine.iter().zip(scanned).filter_map(|(&u, r)| r.map(|(j, c, g)| (u, j, c, g))));
+                let k = (0..js.len()).min_by(|&x, &y| js[x].total_cmp(&js[y])).unwrap_or(0);
+                if js[k] < j0 {
+                    (u0, j0) = (fine[k], js[k]);
+                }
+                let hf = (b - a) / (2 * n) as f64;
+                (a, b) = ((fine[k] - hf).max(a), (fine[k] + hf).min(b));
+                if !(a..=b).contains(&u0) {
+                    (u0, j0) = (fine[k], js[k]);
+                }
             }
         }
         let eval_at = |u: f64| {
