@@ -927,37 +927,24 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
         } else if p.multimodal() || scan.contains(&p) {
             // A mode frequency has one local minimum per spectral feature it can sit on:
             // scan a grid first (its points are independent: evaluated in parallel), then
-            // refine between the best point's neighbours.
-            let grid: Vec<f64> = (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect();
-            let scanned: Vec<Option<(f64, Comparison, f64)>> = grid.par_iter().map(|&u| evaluate_at(u)).collect();
-            evals += grid.len();
-            let js: Vec<f64> = scanned.iter().map(|r| r.as_ref().map_or(f64::INFINITY, |r| r.0)).collect();
-            cache.extend(grid.iter().zip(scanned).filter_map(|(&u, r)| r.map(|(j, c, g)| (u, j, c, g))));
-            let i = (0..js.len()).min_by(|&x, &y| js[x].total_cmp(&js[y])).unwrap_or(0);
-            if js[i] < j0 {
-                (u0, j0) = (grid[i], js[i]);
-            }
-            let h = (b - a) / (2 * n) as f64;
-            (a, b) = ((grid[i] - h).max(a), (grid[i] + h).min(b));
-            if !(a..=b).contains(&u0) {
-                // The refinement bracket must hold the incumbent golden() starts from.
-                (u0, j0) = (grid[i], js[i]);
-            }
-            if fine_grid(p, opts) {
-                // The second grid, inside the best cell (see `LoopOptions::fine_force_scan`).
-                let fine: Vec<f64> = (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect();
-                let scanned: Vec<Option<(f64, Comparison, f64)>> = fine.par_iter().map(|&u| evaluate_at(u)).collect();
-                evals += fine.len();
+            // refine between the best point's neighbours. With `LoopOptions::fine_force_scan`
+            // a force's amplitude gets a second grid inside the best cell of the first.
+            let grids = if fine_grid(p, opts) { 2 } else { 1 };
+            for _ in 0..grids {
+                let grid: Vec<f64> = (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect();
+                let scanned: Vec<Option<(f64, Comparison, f64)>> = grid.par_iter().map(|&u| evaluate_at(u)).collect();
+                evals += grid.len();
                 let js: Vec<f64> = scanned.iter().map(|r| r.as_ref().map_or(f64::INFINITY, |r| r.0)).collect();
-                cache.extend(fine.iter().zip(scanned).filter_map(|(&u, r)| r.map(|(j, c, g)| (u, j, c, g))));
-                let k = (0..js.len()).min_by(|&x, &y| js[x].total_cmp(&js[y])).unwrap_or(0);
-                if js[k] < j0 {
-                    (u0, j0) = (fine[k], js[k]);
+                cache.extend(grid.iter().zip(scanned).filter_map(|(&u, r)| r.map(|(j, c, g)| (u, j, c, g))));
+                let i = (0..js.len()).min_by(|&x, &y| js[x].total_cmp(&js[y])).unwrap_or(0);
+                if js[i] < j0 {
+                    (u0, j0) = (grid[i], js[i]);
                 }
-                let hf = (b - a) / (2 * n) as f64;
-                (a, b) = ((fine[k] - hf).max(a), (fine[k] + hf).min(b));
+                let h = (b - a) / (2 * n) as f64;
+                (a, b) = ((grid[i] - h).max(a), (grid[i] + h).min(b));
                 if !(a..=b).contains(&u0) {
-                    (u0, j0) = (fine[k], js[k]);
+                    // The refinement bracket must hold the incumbent golden() starts from.
+                    (u0, j0) = (grid[i], js[i]);
                 }
             }
         }
