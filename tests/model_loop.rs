@@ -998,6 +998,47 @@ fn a_fine_force_search_lands_in_the_narrow_minimum_of_its_amplitude() {
     assert_eq!(fine_fit.evaluations - 1, 2 * (plain_fit.evaluations - 1));
 }
 
+/// A broken tooth carries nothing: a tooth loss of exactly 1, the top of the loss's range,
+/// which no golden-section probe reaches (its last bracket over 0.05–1 is about 6 % wide, and
+/// near total loss the response changes fast with the last per cent of stiffness). A
+/// full-range line search of a strength whose top is the physics' limit also tries that top
+/// (docs/loop-notebook.md "A line search that also tries the physical top of its range").
+/// Gear base, seed 9700 at 10 dB: from a loss of 0.5 the fit lands on 1 exactly, its
+/// objective a fraction of the one at 0.96 (where the search stopped before); a loss inside
+/// the range (0.55) is not pulled to the top. The evaluation count, with the top's
+/// evaluation, is exact.
+#[test]
+fn a_broken_tooth_is_fitted_at_the_top_of_the_loss_range_the_golden_section_never_probes() {
+    use twinscope::compare::calibrate::{evaluate, fit, fit_evaluations, objective};
+    let base = model::preset("mfs_healthy").unwrap();
+    let opts = LoopOptions { random_effect_realisations: 0, ..Default::default() };
+    let params = [Param::ToothLoss];
+    let fit_from_half = |loss: f64| {
+        let setting = hidden::CaseSetting { value: Some(loss), snr_db: Some(10.0) };
+        let (mut truth, _, _, _) = hidden::make_case_set(&base, &[EffectKind::ToothFault], 9700, &setting);
+        truth.duration_s = 2.0;
+        let measured = model::simulate(&truth).unwrap();
+        let reference = Reference::new(&measured, &opts.compare).unwrap();
+        let mut start = truth.clone();
+        start.seed ^= 7919;
+        start.duration_s = opts.fit_duration_s;
+        Param::ToothLoss.set(&mut start, 0.5);
+        let (fitted, report) = fit(&start, &reference, &params, 1, &opts).unwrap();
+        assert_eq!(report.evaluations, fit_evaluations(&start, &params, &[], 1, &opts));
+        let mut near = fitted.clone();
+        Param::ToothLoss.set(&mut near, 0.96);
+        let (c, _) = evaluate(&near, &reference, &opts).unwrap();
+        (Param::ToothLoss.get(&fitted).unwrap(), report.objective_after, objective(&c, &opts.weights))
+    };
+    let (broken, j_broken, j_near) = fit_from_half(1.0);
+    eprintln!("loss 1: fitted {broken} at {j_broken:.3}; 0.96 gives {j_near:.3}");
+    assert_eq!(broken, 1.0, "a broken tooth fitted at a loss of {broken}");
+    assert!(j_near > 1.5 * j_broken, "0.96 ({j_near:.3}) hardly worse than 1 ({j_broken:.3}): nothing for the top to find");
+    let (inside, _, _) = fit_from_half(0.55);
+    eprintln!("loss 0.55: fitted {inside}");
+    assert!((inside / 0.55 - 1.0).abs() < 0.1, "a loss of 0.55 fitted at {inside}");
+}
+
 /// `LoopOptions::polish_sweeps` (experimental): two sweeps of coordinate descent over the full
 /// ranges can stop far from the calibration's optimum, resonance and damping being coupled.
 /// Seed 6803 of the bearing base (a hidden gear mesh at 1.0 dB the record does not show): the

@@ -705,7 +705,14 @@ pub fn fit_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: us
 
 /// [`fit_evaluations`] without the polish.
 fn sweep_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
-    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| grid_evaluations(*p, scan, opts) + golden_evaluations(*p, opts)).sum::<usize>()
+    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| top_evaluations(*p) + grid_evaluations(*p, scan, opts) + golden_evaluations(*p, opts)).sum::<usize>()
+}
+
+/// Evaluations of a full-range line search at the top of its range: one where the top is
+/// the model's physical limit ([`Param::top_is_a_physical_limit`]), which the golden section
+/// never reaches (a broken tooth is a loss of exactly 1), else none.
+fn top_evaluations(p: Param) -> usize {
+    usize::from(p.top_is_a_physical_limit())
 }
 
 /// Evaluations of a full-range line search's grids before its golden section: `2n` for a
@@ -921,6 +928,18 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
         let golden_n = if local.is_some() { refine_evaluations(opts) } else { golden_evaluations(p, opts) };
         let (mut a, mut b) = (from(lo), from(hi));
         let (mut u0, mut j0) = (from(x0), best_j);
+        // The top of a range that is the physics' own limit is a value the truth can take
+        // (a tooth that carries nothing), and no grid or golden probe lands on it: try it
+        // first, and keep it at the end if nothing the search finds beats it.
+        let top = if local.is_none() && top_evaluations(p) > 0 {
+            evals += 1;
+            evaluate_at(b).map(|(j, c, g)| {
+                cache.push((b, j, c, g));
+                (b, j)
+            })
+        } else {
+            None
+        };
         if let Some(share) = local {
             let h = share * (b - a);
             (a, b) = ((u0 - h).max(a), (u0 + h).min(b));
@@ -958,7 +977,10 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                 None => f64::INFINITY,
             }
         };
-        let (u, j) = golden(eval_at, a, b, golden_n, u0, j0);
+        let (mut u, mut j) = golden(eval_at, a, b, golden_n, u0, j0);
+        if let Some((u_top, j_top)) = top.filter(|&(_, j_top)| j_top < j) {
+            (u, j) = (u_top, j_top);
+        }
         if progress.is_cancelled() {
             return Err(LoopError::Cancelled);
         }
