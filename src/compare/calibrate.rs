@@ -931,7 +931,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
         // The top of a range that is the physics' own limit is a value the truth can take
         // (a tooth that carries nothing), and no grid or golden probe lands on it: try it
         // first, and keep it at the end if nothing the search finds beats it.
-        let top = if local.is_none() && top_evaluations(p) > 0 {
+        let top = if local.is_none() && p.top_is_a_physical_limit() {
             evals += 1;
             evaluate_at(b).map(|(j, c, g)| {
                 cache.push((b, j, c, g));
