@@ -999,6 +999,13 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     // only also start from the uncalibrated values, and the better fit goes on to the re-fit.
     let top_second_start = |t: &EffectTrial| opts.uncalibrated_start_top && !unbent && !scanned_start && !recalibrates(t.effect) && !t.from_uncalibrated;
     progress.expect(stage1.iter().filter(|(t, _)| top_second_start(t)).map(|(t, _)| scanned_start_evaluations(m, t.effect, opts)).sum());
+    // With `refit_effect_in_stage2` the re-fit releases the effect's own parameters too, after
+    // the calibrated ones (a second start carries the same effect, so the same count).
+    let stage2_refine = |k: EffectKind| -> Vec<Param> {
+        let effect = if opts.refit_effect_in_stage2 { Param::of_effect(k) } else { Vec::new() };
+        released.iter().copied().chain(effect.into_iter().filter(|p| !released.contains(p))).collect()
+    };
+    progress.expect(stage1.iter().map(|(t, fm)| fit_trial_evaluations(fm, &[], &stage2_refine(t.effect), opts) - fit_trial_evaluations(fm, &[], &released, opts)).sum());
     let stage2: Vec<((EffectTrial, Machine), bool)> = stage1
         .into_par_iter()
         .map(|(t1, fm)| {
@@ -1007,7 +1014,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 Some(Ok((b, bm))) if b.objective_after < t1.objective_after => ((EffectTrial { from_uncalibrated: true, ..b }, bm), true),
                 _ => ((t1, fm), false),
             };
-            let refitted = match fit_trial(&fm, measured, &[], &released, opts, progress) {
+            let refitted = match fit_trial(&fm, measured, &[], &stage2_refine(t1.effect), opts, progress) {
                 Ok((fm2, f2)) if f2.objective_after < t1.objective_after => {
                     (EffectTrial { from_uncalibrated: t1.from_uncalibrated, ..make_trial(t1.effect, &fm2, &f2, &refined_and(&released)) }, fm2)
                 }
