@@ -183,6 +183,27 @@ fn a_casing_trial_scans_recalibrates_and_expects_exactly_the_evaluations_it_make
     assert!(t.extra_parameters.iter().any(|(p, _)| *p == Param::ResonanceHz), "{:?}", t.extra_parameters);
 }
 
+/// With `refit_effect_in_stage2`, stage 2 re-fits each top trial's own parameters locally
+/// after the calibrated ones: one local line search (3 evaluations here) more per effect
+/// parameter, load and clearance for the load zone, the frequency for the casing mode, and the
+/// progress total counts them exactly. Nothing before stage 2 changes, and a re-fit can only
+/// keep or lower a trial's objective.
+#[test]
+fn a_stage2_refit_of_the_effect_expects_exactly_the_evaluations_it_makes() {
+    let (m, measured, opts) = quick_case(14, vec![EffectKind::CasingModes, EffectKind::LoadZone]);
+    let (d_off, calls_off, expected_off) = diagnose_counting(&m, &measured, &opts);
+    let on = LoopOptions { refit_effect_in_stage2: true, ..opts.clone() };
+    let (d_on, calls_on, expected_on) = diagnose_counting(&m, &measured, &on);
+    assert!(!d_off.unbent && !d_on.unbent);
+    assert_eq!(calls_off, expected_off);
+    assert_eq!(calls_on, expected_on);
+    assert_eq!(expected_on, expected_off + 3 * (2 + 1));
+    for t in &d_on.trials {
+        let off = d_off.trials.iter().find(|x| x.effect == t.effect).unwrap();
+        assert!(t.objective_after <= off.objective_after + 1e-12, "{}: {} against {}", t.effect.name(), t.objective_after, off.objective_after);
+    }
+}
+
 #[test]
 fn the_seed_floor_is_what_the_model_scores_against_itself() {
     // A "measurement" from the model itself (another seed): the calibrated objective is at the
