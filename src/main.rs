@@ -303,6 +303,12 @@ struct SearchArgs {
     /// Experimental, off by default.
     #[arg(long)]
     refit_effect_in_stage2: bool,
+    /// After the search, give the chosen effect's strength the range the data cannot tell from
+    /// its fitted value: a profile of 7 points around it, every other free parameter re-fitted
+    /// locally at each, within 2√2 × the seed scatter of the fitted objective
+    /// (`Diagnosis::strength_range` in the JSON). 7 local re-fits more when something is chosen.
+    #[arg(long)]
+    strength_range: bool,
     /// Do not start the best three stage-1 trials (those stage 2 re-fits) also from the
     /// uncalibrated values. By default they are (their effect scanned, then the plain trial's
     /// fit) and the better fit goes on to stage 2: for a calibration that moved a base
@@ -422,7 +428,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, strength_range: self.strength_range, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         o
@@ -798,6 +804,15 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         println!("    {:<18} not ranked: its trial failed: {why}", k.name());
     }
     println!("\nverdict: {}", last.verdict);
+    if let Some(r) = &last.strength_range {
+        println!(
+            "strength range: {} — the values whose objective, every other free parameter re-fitted, stays within {:.2} (2√2 × the seed scatter) of the fitted value's {:.2}; profile: {}",
+            r.text(),
+            r.tolerance,
+            r.objective_fitted,
+            r.profile.iter().map(|(v, j)| format!("{v:.3e}: {j:.2}")).collect::<Vec<_>>().join(", ")
+        );
+    }
     if history.len() > 1 || rounds > 1 {
         println!("\nhistory:");
         for r in &history {
@@ -943,6 +958,19 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         let missed: Vec<String> = recoverable.iter().filter_map(|r| Some(format!("{}: {}", r.hidden?.name(), r.miss()?.text()))).collect();
         if !missed.is_empty() {
             println!("recoverable and not chosen: {}", missed.join("; "));
+        }
+        // With --strength-range: does the chosen hidden effect's range hold its true value?
+        let ranged: Vec<String> = results
+            .iter()
+            .filter(|r| r.chosen.is_some() && r.chosen == r.hidden)
+            .filter_map(|r| {
+                let (range, (p, v), k) = (r.strength_range.as_ref()?, r.true_parameter?, r.hidden?);
+                (range.parameter == p).then(|| format!("{} {v:.3e}: {} {}", k.name(), range.text(), if range.contains(v) { "holds it" } else { "misses it" }))
+            })
+            .collect();
+        if !ranged.is_empty() {
+            let held = ranged.iter().filter(|t| t.ends_with("holds it")).count();
+            println!("strength ranges holding the true value: {held} of {}: {}", ranged.len(), ranged.join("; "));
         }
     }
     if groups.is_empty() {

@@ -458,6 +458,14 @@ pub struct LoopOptions {
     /// search per effect parameter of each re-fitted trial. Default: off (experimental,
     /// session 52).
     pub refit_effect_in_stage2: bool,
+    /// After the search, the chosen effect's strength gets the range the data cannot tell
+    /// from its fitted value: a profile of 7 points around it, every other free parameter
+    /// re-fitted locally at each, judged against the tie band of the seed scatter
+    /// ([`crate::compare::strength_range`]). A reported strength is one point of a valley: on
+    /// the gear base a mesh variation trades against the resonance frequency by a factor of
+    /// 1.5 within the scatter (docs/loop-notebook.md "The effect's strength in stage 2"). Costs
+    /// 7 local re-fits (in parallel) when something is chosen. Default: off.
+    pub strength_range: bool,
     /// Sweeps of a polish after every full-range fit (the calibration, a trial that re-does
     /// the calibration with its effect, a start from the uncalibrated values unless
     /// [`LoopOptions::polish_second_starts`] is off): each fitted
@@ -599,7 +607,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.3, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.3, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -210,6 +210,11 @@ pub struct Diagnosis {
     /// that led the ranking with one, and that ranking's verdict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub second_look: Option<SecondLook>,
+    /// With [`LoopOptions::strength_range`]: the range of the chosen effect's strength that the
+    /// data cannot tell from the fitted value (a profile, every other free parameter
+    /// re-fitted at each point: [`super::strength_range`]). None when off or nothing was chosen.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength_range: Option<super::strength_range::StrengthRange>,
 }
 
 /// A diagnosis redone with several realisations because a random effect led it with one
@@ -663,7 +668,23 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// (explains less than [`SHORT_EXPLAINED`] of the error above the floor and leaves the
 /// objective above the floor margin's ratio) is redone unbent in the same places, and the
 /// unbent one is returned with the plain one's choice in [`Diagnosis::short_plain`].
+///
+/// With [`LoopOptions::strength_range`], the answer's chosen effect gets the range of its
+/// strength ([`Diagnosis::strength_range`]), judged with the realisations of the search that
+/// chose it.
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
+    let (cal, mut d) = diagnose_search(m, reference, opts, progress)?;
+    if opts.strength_range {
+        let looked = d.second_look.as_ref().map(|s| LoopOptions { realisations: s.realisations, ..opts.clone() });
+        let judged = looked.as_ref().unwrap_or(opts);
+        progress.expect(super::strength_range::strength_range_evaluations(&cal, &d, judged));
+        d.strength_range = super::strength_range::strength_range(&cal, &d, reference, judged, progress)?;
+    }
+    Ok((cal, d))
+}
+
+/// [`diagnose_with`] without the strength range.
+fn diagnose_search(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let mut calibrated = Vec::new();
     let first = diagnose_once(m, reference, opts, false, &mut calibrated, progress)?;
     if unbend_acts(&first.1, opts) {
@@ -1083,7 +1104,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, strength_range: None }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before

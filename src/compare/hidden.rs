@@ -65,6 +65,9 @@ pub struct CaseResult {
     /// What the true machine itself scores against the measurement ([`oracle`]).
     #[serde(default)]
     pub oracle: Oracle,
+    /// The chosen effect's strength range ([`LoopOptions::strength_range`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength_range: Option<super::strength_range::StrengthRange>,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -402,6 +405,7 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
         short_plain_chosen: d.short_plain.as_ref().map(|s| s.chosen),
         top_second_starts_won: d.top_second_starts_won.clone(),
         oracle,
+        strength_range: d.strength_range.clone(),
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

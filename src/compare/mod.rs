@@ -7,6 +7,7 @@ pub mod diagnose;
 pub mod hidden;
 pub mod metrics;
 pub mod residual;
+pub mod strength_range;
 
 pub use metrics::{metrics, metrics_normalised_by, pearson, xcorr_peak, Metrics, Normaliser};
 pub use calibrate::{evaluate, fit, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param, FIT_DURATION_RANGE_S, MAX_POLISH_SWEEPS, MAX_REALISATIONS, SHORT_EXPLAINED};

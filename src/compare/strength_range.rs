@@ -1,0 +1,232 @@
+//! The range of an effect's strength that the data cannot tell from the fitted value.
+//!
+//! A fitted strength is one point of a valley. On the gear base a 0.5 mesh variation is
+//! fitted at 0.72 with the resonance 1.7 % high, and at the true resonance the objective's
+//! minimum is at 0.5–0.6: the mesh harmonics reach the sensor through the resonance, so the
+//! data see the product of the excitation and the transfer path at a few harmonics, and a
+//! shift of one trades against the size of the other (docs/loop-notebook.md "The effect's
+//! strength in stage 2"). The range is a profile, as a profile likelihood is built: the
+//! strength is held at values on both sides of the fit, every other free parameter (the
+//! calibrated ones and the effect's others) is re-fitted locally at each, and the range is
+//! where that best objective stays within the tie band of the diagnosis (2√2 σ of the seed
+//! scatter, the band within which [`super::diagnose::decide`] calls two trials tied),
+//! interpolated linearly between profile points.
+
+use super::calibrate::{calibration_parameters_for, fit_trial, fit_trial_evaluations, LoopError, LoopOptions, LoopProgress, Param};
+use super::diagnose::{apply_trial, Diagnosis};
+use super::Reference;
+use crate::model::{EffectKind, Machine};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Steps of the profile on each side of the fit, as shares of the parameter's search range
+/// (in log units for a log-scaled one): on a log range of a factor 40 (mesh variation, slip)
+/// they are factors of 1.12, 1.34 and 1.80.
+pub const PROFILE_STEPS: [f64; 3] = [0.03, 0.08, 0.16];
+
+/// An effect's strength with the range the data cannot tell from it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StrengthRange {
+    /// The strength (the effect's main parameter).
+    pub parameter: Param,
+    /// Its fitted value.
+    pub fitted: f64,
+    /// The lowest and highest values whose re-fitted objective is within `tolerance` of the
+    /// fitted one's (interpolated between profile points).
+    pub low: f64,
+    pub high: f64,
+    /// Whether the profile's outermost point on that side was still within the tolerance
+    /// (the range reaches at least that far; it may reach farther), or was the search
+    /// range's edge.
+    pub low_open: bool,
+    pub high_open: bool,
+    /// The objective of the fitted value, re-fitted the same way as every profile point.
+    pub objective_fitted: f64,
+    /// The tolerance on the objective: 2√2 σ of the diagnosis's seed scatter.
+    pub tolerance: f64,
+    /// The profile: (value, best objective with every other free parameter re-fitted), by value.
+    pub profile: Vec<(f64, f64)>,
+}
+
+impl StrengthRange {
+    /// `"0.72 (0.45–0.80)"`, `"0.72 (≥ 0.45 – ≥ 0.80)"` when open: one line for a verdict or a table.
+    pub fn text(&self) -> String {
+        let side = |v: f64, open: bool, ge: &str| if open { format!("{ge} {v:.3e}") } else { format!("{v:.3e}") };
+        format!("{} = {:.3e} ({} – {})", self.parameter.name(), self.fitted, side(self.low, self.low_open, "≤"), side(self.high, self.high_open, "≥"))
+    }
+
+    /// Whether `v` is inside the range (an open side counts as unbounded).
+    pub fn contains(&self, v: f64) -> bool {
+        (self.low_open || v >= self.low) && (self.high_open || v <= self.high)
+    }
+}
+
+/// The profile's points for a strength fitted at `x` with search bounds `(lo, hi, log)`:
+/// `x` itself and [`PROFILE_STEPS`] on each side, those beyond the bounds dropped (the bound
+/// itself is kept once when a step crosses it), in increasing order.
+pub fn profile_points(x: f64, lo: f64, hi: f64, log: bool) -> Vec<f64> {
+    let (to, from): (fn(f64) -> f64, fn(f64) -> f64) = if log { (f64::exp, f64::ln) } else { (|u| u, |x| x) };
+    let (a, b) = (from(lo), from(hi));
+    let u0 = from(x).clamp(a, b);
+    let w = b - a;
+    let mut us: Vec<f64> = vec![u0];
+    for s in PROFILE_STEPS {
+        for u in [u0 - s * w, u0 + s * w] {
+            let u = u.clamp(a, b);
+            if !us.iter().any(|v| (v - u).abs() <= 1e-12 * w.max(1.0)) {
+                us.push(u);
+            }
+        }
+    }
+    us.sort_by(f64::total_cmp);
+    us.into_iter().map(to).collect()
+}
+
+/// The parameters re-fitted at every profile point of effect `k` on the calibrated machine
+/// `cal`: the calibration's and the effect's own besides its strength.
+fn released(cal: &Machine, k: EffectKind, opts: &LoopOptions) -> Vec<Param> {
+    let main = Param::main_of_effect(k);
+    let mut ps = calibration_parameters_for(cal, opts);
+    for p in Param::of_effect(k) {
+        if Some(p) != main && !ps.contains(&p) {
+            ps.push(p);
+        }
+    }
+    ps
+}
+
+/// The model evaluations [`strength_range`] makes for `d`'s chosen effect on `cal`; 0 when it
+/// makes none (nothing chosen, or the effect has no strength).
+pub fn strength_range_evaluations(cal: &Machine, d: &Diagnosis, opts: &LoopOptions) -> usize {
+    let Some((fm, p, x)) = chosen_fit(cal, d) else { return 0 };
+    let (lo, hi, log) = p.bounds(&fm);
+    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, d.best.unwrap_or(EffectKind::Noise), opts), opts)
+}
+
+/// `d`'s chosen trial applied to `cal`, with its strength parameter and fitted value.
+fn chosen_fit(cal: &Machine, d: &Diagnosis) -> Option<(Machine, Param, f64)> {
+    let k = d.best?;
+    let t = d.trials.iter().find(|t| t.effect == k)?;
+    let (p, x) = t.parameter?;
+    let mut fm = cal.clone();
+    apply_trial(&mut fm, t);
+    Some((fm, p, x))
+}
+
+/// The range of the chosen effect's strength of diagnosis `d` made on the calibrated machine
+/// `cal` (the pair [`super::diagnose_with`] returns) against `reference`, judged with `opts`
+/// (a second look's realisations when `d` is one). `None` when nothing was chosen or the
+/// effect has no strength (a contact made nonlinear). Profile points run in parallel; every
+/// evaluation is reported to `progress` (expected by the caller: [`strength_range_evaluations`]).
+pub fn strength_range(cal: &Machine, d: &Diagnosis, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<Option<StrengthRange>, LoopError> {
+    let Some((fm, p, x)) = chosen_fit(cal, d) else { return Ok(None) };
+    let k = d.best.expect("chosen_fit needs a chosen effect");
+    let (lo, hi, log) = p.bounds(&fm);
+    let points = profile_points(x, lo, hi, log);
+    let refit = released(cal, k, opts);
+    let profile: Vec<Result<(f64, f64), LoopError>> = points
+        .par_iter()
+        .map(|&v| {
+            let mut t = fm.clone();
+            p.set(&mut t, v);
+            let (_, f) = fit_trial(&t, reference, &[], &refit, opts, progress)?;
+            Ok((v, f.objective_after))
+        })
+        .collect();
+    if progress.is_cancelled() {
+        return Err(LoopError::Cancelled);
+    }
+    let profile: Vec<(f64, f64)> = profile.into_iter().collect::<Result<_, _>>()?;
+    let tolerance = 2.0 * std::f64::consts::SQRT_2 * d.objective_scatter;
+    Ok(Some(range_of_profile(p, x, &profile, tolerance, (lo, hi), log)))
+}
+
+/// The range from a profile (by value, containing the fitted `x`): from the fitted point
+/// outwards on each side, the last value whose objective is within `tolerance` of the fitted
+/// point's, extended to where the line to the next point crosses that level (in the search
+/// coordinate: log for a log-scaled parameter). A side whose every point passes is open.
+pub fn range_of_profile(p: Param, x: f64, profile: &[(f64, f64)], tolerance: f64, bounds: (f64, f64), log: bool) -> StrengthRange {
+    let from = |v: f64| if log { v.ln() } else { v };
+    let to = |u: f64| if log { u.exp() } else { u };
+    let i0 = (0..profile.len()).min_by(|&a, &b| (from(profile[a].0) - from(x)).abs().total_cmp(&(from(profile[b].0) - from(x)).abs())).unwrap_or(0);
+    let j_fit = profile.get(i0).map_or(f64::NAN, |q| q.1);
+    let level = j_fit + tolerance;
+    // Walks from the fitted point by `step` (±1); returns (the range's end, open).
+    let walk = |step: isize| -> (f64, bool) {
+        let mut i = i0 as isize;
+        loop {
+            let next = i + step;
+            if next < 0 || next >= profile.len() as isize {
+                let v = profile[i as usize].0;
+                // An end at the search range's bound is closed by the bound itself.
+                let at_bound = (step < 0 && v <= bounds.0 * (1.0 + 1e-9)) || (step > 0 && v >= bounds.1 * (1.0 - 1e-9));
+                return (v, !at_bound);
+            }
+            let (a, b) = (profile[i as usize], profile[next as usize]);
+            if !(b.1 <= level) {
+                // Crosses between a (inside) and b (outside, or not finite).
+                if !b.1.is_finite() || b.1 <= a.1 {
+                    return (a.0, false);
+                }
+                let s = ((level - a.1) / (b.1 - a.1)).clamp(0.0, 1.0);
+                return (to(from(a.0) + s * (from(b.0) - from(a.0))), false);
+            }
+            i = next;
+        }
+    };
+    let (low, low_open) = walk(-1);
+    let (high, high_open) = walk(1);
+    StrengthRange { parameter: p, fitted: x, low, high, low_open, high_open, objective_fitted: j_fit, tolerance, profile: profile.to_vec() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn profile_points_are_symmetric_in_log_and_clipped_at_the_bounds() {
+        let v = profile_points(0.2, 0.02, 0.8, true);
+        assert_eq!(v.len(), 7);
+        let w = (40f64).ln();
+        for (i, s) in [-0.16, -0.08, -0.03, 0.0, 0.03, 0.08, 0.16].iter().enumerate() {
+            assert!((v[i] - 0.2 * (s * w).exp()).abs() < 1e-12, "{v:?}");
+        }
+        // Near the top: the steps beyond it collapse onto the bound once.
+        let v = profile_points(0.75, 0.02, 0.8, true);
+        assert_eq!(v.last().copied(), Some(0.8));
+        assert_eq!(v.iter().filter(|x| **x == 0.8).count(), 1);
+        assert!(v.windows(2).all(|p| p[0] < p[1]));
+        // Linear: steps are shares of the range.
+        let v = profile_points(0.5, 0.0, 1.0, false);
+        assert!((v[0] - 0.34).abs() < 1e-12 && (v[6] - 0.66).abs() < 1e-12, "{v:?}");
+    }
+
+    #[test]
+    fn the_range_is_where_a_parabola_stays_within_the_tolerance() {
+        // J(u) = 1 + (u − ln 0.5)² in log units; tolerance 0.04: |u − ln 0.5| ≤ 0.2 exactly,
+        // and linear interpolation between points places each end within one step.
+        let x = 0.5f64;
+        let pts = profile_points(x, 0.02, 0.8, true);
+        let profile: Vec<(f64, f64)> = pts.iter().map(|&v| (v, 1.0 + (v.ln() - x.ln()).powi(2))).collect();
+        let r = range_of_profile(Param::MeshVariation, x, &profile, 0.04, (0.02, 0.8), true);
+        assert!(!r.low_open && !r.high_open, "{r:?}");
+        assert!((r.low.ln() - (x.ln() - 0.2)).abs() < 0.05 && (r.high.ln() - (x.ln() + 0.2)).abs() < 0.05, "{r:?}");
+        assert!(r.contains(0.5) && !r.contains(0.3) && !r.contains(0.75));
+        // A flat profile: open on both sides, the range spanning every point (0.2: no step
+        // reaches a bound).
+        let pts = profile_points(0.2, 0.02, 0.8, true);
+        let flat: Vec<(f64, f64)> = pts.iter().map(|&v| (v, 1.0)).collect();
+        let r = range_of_profile(Param::MeshVariation, 0.2, &flat, 0.04, (0.02, 0.8), true);
+        assert!(r.low_open && r.high_open && r.low == pts[0] && r.high == pts[pts.len() - 1]);
+        // At the top bound: that side is closed by the bound.
+        let pts = profile_points(0.8, 0.02, 0.8, true);
+        let flat: Vec<(f64, f64)> = pts.iter().map(|&v| (v, 1.0)).collect();
+        let r = range_of_profile(Param::MeshVariation, 0.8, &flat, 0.04, (0.02, 0.8), true);
+        assert!(r.low_open && !r.high_open && r.high == 0.8, "{r:?}");
+        // A failed point (not finite) closes the side at the last good one.
+        let mut broken = flat.clone();
+        broken[0].1 = f64::NAN;
+        let r = range_of_profile(Param::MeshVariation, 0.8, &broken, 0.04, (0.02, 0.8), true);
+        assert!(!r.low_open && r.low == pts[1], "{r:?}");
+    }
+}
