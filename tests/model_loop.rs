@@ -233,6 +233,43 @@ fn the_seed_floor_is_what_the_model_scores_against_itself() {
     assert!(without > t.objective_after && t.effect_explained.unwrap() > 0.5, "without the load zone {without:.2}, with it {:.2}: {:?}", t.objective_after, t.effect_explained);
 }
 
+/// `strength_range`: a strong 200 N load zone the search chooses gets a range of its load
+/// that holds the fitted value and the true one, is closed on both sides (the load is
+/// well pinned: a factor of 2 either way is far outside the seed scatter), and is built from
+/// 7 profile points whose re-fits are all counted in the progress total. The diagnosis
+/// itself is the one the search makes without the option.
+#[test]
+fn a_chosen_load_zone_gets_a_strength_range_that_holds_its_true_load() {
+    let (m, _, opts) = quick_case(12, vec![EffectKind::LoadZone, EffectKind::Slip]);
+    let mut truth = m.clone();
+    truth.seed = 12;
+    truth.duration_s = 1.0;
+    truth.effects.enable(EffectKind::LoadZone);
+    Param::RadialLoadN.set(&mut truth, 200.0);
+    let measured = model::simulate(&truth).unwrap();
+    let on = LoopOptions { strength_range: true, ..opts.clone() };
+    let (d, calls, expected) = diagnose_counting(&m, &measured, &on);
+    assert_eq!(calls, expected);
+    assert_eq!(d.best, Some(EffectKind::LoadZone), "{}", d.verdict);
+    let r = d.strength_range.as_ref().expect("a chosen load zone gets a range");
+    assert_eq!(r.parameter, Param::RadialLoadN);
+    assert_eq!(r.profile.len(), 7);
+    eprintln!("load range: {}; profile {:?}", r.text(), r.profile);
+    let fitted = d.trials[0].parameter.unwrap().1;
+    assert_eq!(r.fitted, fitted);
+    assert!(!r.low_open && !r.high_open, "{}", r.text());
+    assert!(r.low < fitted && fitted < r.high && r.contains(200.0), "{}", r.text());
+    assert!(r.high / r.low < 4.0, "{}", r.text());
+    // The re-fit at the fitted value can only match or lower the trial's own objective.
+    assert!(r.objective_fitted <= d.trials[0].objective_after + 1e-9, "{} against {}", r.objective_fitted, d.trials[0].objective_after);
+    // Without the option: the same diagnosis, no range.
+    let (d_off, calls_off, _) = diagnose_counting(&m, &measured, &opts);
+    assert!(d_off.strength_range.is_none());
+    assert_eq!(d_off.verdict, d.verdict);
+    // Seven profile points, each the same local re-fit.
+    assert!(calls > calls_off && (calls - calls_off) % 7 == 0, "{calls} against {calls_off}");
+}
+
 #[test]
 fn the_misalignment_trial_scales_its_1x_force_with_the_2x() {
     // A misalignment fitted to a weak 2× must not keep a fixed 1× force and pass for an
