@@ -68,6 +68,9 @@ pub struct Settings {
     /// Model loop: a diagnosis whose best trial explains under half the error above the floor
     /// is done again unbent (`LoopOptions::unbend_when_short`, experimental).
     pub loop_unbend_when_short: bool,
+    /// Model loop: the chosen effect's strength gets the range the data cannot tell from it
+    /// (`LoopOptions::strength_range`, off by default).
+    pub loop_strength_range: bool,
     /// Model loop: the best three stage-1 trials also start from the uncalibrated values
     /// before stage 2 (`LoopOptions::uncalibrated_start_top`, on by default since session 48).
     pub loop_uncalibrated_start_top: bool,
@@ -112,6 +115,7 @@ impl Default for Settings {
             loop_scan_force_amplitudes: LoopOptions::default().scan_force_amplitudes,
             loop_unbend_when_stuck: LoopOptions::default().unbend_when_stuck,
             loop_unbend_when_short: LoopOptions::default().unbend_when_short,
+            loop_strength_range: LoopOptions::default().strength_range,
             loop_uncalibrated_start_top: LoopOptions::default().uncalibrated_start_top,
             loop_fine_forces: LoopOptions::default().fine_forces,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
@@ -180,6 +184,7 @@ impl Settings {
             scan_force_amplitudes: self.loop_scan_force_amplitudes,
             unbend_when_stuck: self.loop_unbend_when_stuck,
             unbend_when_short: self.loop_unbend_when_short,
+            strength_range: self.loop_strength_range,
             uncalibrated_start_top: self.loop_uncalibrated_start_top,
             fine_forces: self.loop_fine_forces,
             polish_sweeps: self.loop_polish_sweeps,
@@ -247,6 +252,7 @@ mod tests {
             loop_scan_force_amplitudes: false,
             loop_unbend_when_stuck: false,
             loop_unbend_when_short: true,
+            loop_strength_range: true,
             loop_uncalibrated_start_top: false,
             loop_fine_forces: false,
             loop_polish_sweeps: 0,

@@ -177,6 +177,8 @@ impl ModelLoopView {
                 .on_hover_text("a calibration can bend the model to do without what is missing without reaching an edge of any range; this costs a second search, in stuck rounds only");
             ui.checkbox(&mut s.loop_unbend_when_short, "unbend when short: a search whose best explains under half the error starts every trial again from the uncalibrated values (experimental)")
                 .on_hover_text("a calibration that absorbed a strong force can leave a stand-in ranked first that explains little (a misalignment answered by an unbalance); this costs a second search, in such rounds only");
+            ui.checkbox(&mut s.loop_strength_range, "strength range: the chosen effect's strength with the range the data cannot tell from it")
+                .on_hover_text("after the search, the chosen strength is held at 7 points around its fit and every other free parameter re-fitted at each (7 local re-fits, in parallel); the range is where the objective stays within 2√2 × the seed scatter of the fitted one's. A fitted size can be one point of a valley: a mesh variation trades against the resonance frequency by a factor of 1.5");
             ui.checkbox(&mut s.loop_uncalibrated_start_top, "second start for the top trials: the best three trials also start from the uncalibrated values before their re-fit")
                 .on_hover_text("a calibration can move a base parameter far toward a missing force without pinning it, and the re-fit of the best trials is local; this costs about three trials more, in searches that are not unbent");
             let mut all = s.loop_candidates.is_empty();
@@ -280,6 +282,14 @@ impl ModelLoopView {
         }
         let verdict = RichText::new(format!("Verdict: {}", drawable(&d.verdict)));
         ui.add(egui::Label::new(if d.best.is_some() { verdict.strong() } else { verdict }).wrap());
+        if let Some(sr) = &d.strength_range {
+            ui.label(format!("Strength range: {}", drawable(&sr.text()))).on_hover_text(format!(
+                "the values whose objective, every other free parameter re-fitted, stays within {:.2} (2√2 × the seed scatter) of the fitted value's {:.2}; ≤ / ≥: the profile's last point on that side still passed\nprofile: {}",
+                sr.tolerance,
+                sr.objective_fitted,
+                sr.profile.iter().map(|(v, j)| format!("{} → {j:.2}", fmt_num(*v))).collect::<Vec<_>>().join(", ")
+            ));
+        }
         let cal = &d.calibration;
         ui.horizontal_wrapped(|ui| {
             ui.label(format!(
