@@ -445,8 +445,13 @@ pub struct LoopOptions {
     /// cell straddle: seed 9208's 41.9 N misalignment sits in such a notch, 40.6–44.5 N, and
     /// the golden section of the cell 18.6–56.0 N left it for a shoulder at 31.3 N
     /// (docs/loop-notebook.md "The short misalignment of 9208: a notch the golden section
-    /// straddles"). Costs one more grid (evaluated in parallel) per scanned force. Default:
-    /// off (experimental, session 50).
+    /// straddles"). Since session 52 the fine cell is a second start: the coarse cell's golden
+    /// section runs too and the lower of the two is kept, so the force's fit never ends above
+    /// the plain search's (with the fine cell alone, two belts of session 51 fitted further
+    /// from the truth at a higher objective; fresh gear case 9828, a 48.1 N misalignment, fits
+    /// at 43.9 N with objective 7.03 plainly and at 48.1 N, 3.69, with the fine cell).
+    /// Costs one more grid (evaluated in parallel) and one more golden section per scanned
+    /// force. Default: off (experimental, session 50).
     pub fine_force_scan: bool,
     /// Stage 2 of a diagnosis (the best [`LoopOptions::recalibrate_top`] trials re-fit every
     /// calibrated parameter locally) also re-fits the effect's own parameters locally, after
@@ -723,7 +728,7 @@ pub fn fit_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: us
 
 /// [`fit_evaluations`] without the polish.
 fn sweep_evaluations(m: &Machine, params: &[Param], scan: &[Param], sweeps: usize, opts: &LoopOptions) -> usize {
-    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| top_evaluations(*p) + grid_evaluations(*p, scan, opts) + golden_evaluations(*p, opts)).sum::<usize>()
+    1 + sweeps * params.iter().filter(|p| p.get(m).is_some()).map(|p| top_evaluations(*p) + grid_evaluations(*p, scan, opts) + golden_evaluations(*p, opts) * golden_sections(*p, scan, opts)).sum::<usize>()
 }
 
 /// Evaluations of a full-range line search at the top of its range: one where the top is
@@ -744,6 +749,17 @@ fn grid_evaluations(p: Param, scan: &[Param], opts: &LoopOptions) -> usize {
         4 * n
     } else {
         2 * n
+    }
+}
+
+/// Golden sections of a full-range line search of `p`: two for a force with a second grid
+/// ([`LoopOptions::fine_force_scan`]: the fine cell's and the coarse cell's, the lower kept),
+/// else one.
+fn golden_sections(p: Param, scan: &[Param], opts: &LoopOptions) -> usize {
+    if scan.contains(&p) && fine_grid(p, opts) {
+        2
+    } else {
+        1
     }
 }
 
@@ -958,6 +974,9 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
         } else {
             None
         };
+        // With a force's second grid: the coarse grid's best cell and incumbent, whose golden
+        // section runs too.
+        let mut coarse_cell: Option<(f64, f64, f64, f64)> = None;
         if let Some(share) = local {
             let h = share * (b - a);
             (a, b) = ((u0 - h).max(a), (u0 + h).min(b));
@@ -967,7 +986,12 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
             // refine between the best point's neighbours. With `LoopOptions::fine_force_scan`
             // a force's amplitude gets a second grid inside the best cell of the first.
             let grids = if fine_grid(p, opts) { 2 } else { 1 };
-            for _ in 0..grids {
+            for g in 0..grids {
+                if g == 1 {
+                    // The coarse cell keeps its own golden section (below): the fine cell is
+                    // a second start, kept only when it ends lower.
+                    coarse_cell = Some((a, b, u0, j0));
+                }
                 let grid: Vec<f64> = (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect();
                 let scanned: Vec<Option<(f64, Comparison, f64)>> = grid.par_iter().map(|&u| evaluate_at(u)).collect();
                 evals += grid.len();
@@ -985,7 +1009,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                 }
             }
         }
-        let eval_at = |u: f64| {
+        let mut eval_at = |u: f64| {
             evals += 1;
             match evaluate_at(u) {
                 Some((j, c, g)) => {
@@ -995,7 +1019,13 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                 None => f64::INFINITY,
             }
         };
-        let (mut u, mut j) = golden(eval_at, a, b, golden_n, u0, j0);
+        let (mut u, mut j) = golden(&mut eval_at, a, b, golden_n, u0, j0);
+        if let Some((a1, b1, u1, j1)) = coarse_cell {
+            let (uc, jc) = golden(&mut eval_at, a1, b1, golden_n, u1, j1);
+            if jc < j {
+                (u, j) = (uc, jc);
+            }
+        }
         if let Some((u_top, j_top)) = top.filter(|&(_, j_top)| j_top < j) {
             (u, j) = (u_top, j_top);
         }
