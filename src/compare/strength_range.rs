@@ -73,7 +73,8 @@ impl StrengthRange {
 /// `x` itself and [`PROFILE_STEPS`] on each side, those beyond the bounds dropped (the bound
 /// itself is kept once when a step crosses it), in increasing order.
 pub fn profile_points(x: f64, lo: f64, hi: f64, log: bool) -> Vec<f64> {
-    let (to, from): (fn(f64) -> f64, fn(f64) -> f64) = if log { (f64::exp, f64::ln) } else { (|u| u, |x| x) };
+    let to = |u: f64| if log { u.exp() } else { u };
+    let from = |x: f64| if log { x.ln() } else { x };
     let (a, b) = (from(lo), from(hi));
     let u0 = from(x).clamp(a, b);
     let w = b - a;
@@ -171,7 +172,8 @@ pub fn range_of_profile(p: Param, x: f64, profile: &[(f64, f64)], tolerance: f64
                 return (v, !at_bound);
             }
             let (a, b) = (profile[i as usize], profile[next as usize]);
-            if !(b.1 <= level) {
+            let inside = b.1.is_finite() && b.1 <= level;
+            if !inside {
                 // Crosses between a (inside) and b (outside, or not finite).
                 if !b.1.is_finite() || b.1 <= a.1 {
                     return (a.0, false);
