@@ -215,12 +215,7 @@ fn the_seed_floor_is_what_the_model_scores_against_itself() {
     assert_eq!(d.best, None, "{}", d.verdict);
 
     // The same model against a measurement with a strong load zone: far above its floor.
-    let mut truth = m.clone();
-    truth.seed = 12;
-    truth.duration_s = 1.0;
-    truth.effects.enable(EffectKind::LoadZone);
-    Param::RadialLoadN.set(&mut truth, 200.0);
-    let measured = model::simulate(&truth).unwrap();
+    let measured = with_load_zone_200_n(&m);
     let (_, d) = twinscope::compare::diagnose(&m, &measured, &opts, &|_, _| true).unwrap();
     let j0 = d.calibration.objective_after;
     assert!(j0 > 2.0 * d.floor_objective, "objective {j0:.2}, floor {:.2}", d.floor_objective);
@@ -233,6 +228,16 @@ fn the_seed_floor_is_what_the_model_scores_against_itself() {
     assert!(without > t.objective_after && t.effect_explained.unwrap() > 0.5, "without the load zone {without:.2}, with it {:.2}: {:?}", t.objective_after, t.effect_explained);
 }
 
+/// A 1 s "measurement" of `m` (seed 12) with a strong 200 N load zone added.
+fn with_load_zone_200_n(m: &model::Machine) -> twinscope::signal::Signal {
+    let mut truth = m.clone();
+    truth.seed = 12;
+    truth.duration_s = 1.0;
+    truth.effects.enable(EffectKind::LoadZone);
+    Param::RadialLoadN.set(&mut truth, 200.0);
+    model::simulate(&truth).unwrap()
+}
+
 /// `strength_range`: a strong 200 N load zone the search chooses gets a range of its load
 /// that holds the fitted value and the true one, is closed on both sides (the load is
 /// well pinned: a factor of 2 either way is far outside the seed scatter), and is built from
@@ -241,12 +246,7 @@ fn the_seed_floor_is_what_the_model_scores_against_itself() {
 #[test]
 fn a_chosen_load_zone_gets_a_strength_range_that_holds_its_true_load() {
     let (m, _, opts) = quick_case(12, vec![EffectKind::LoadZone, EffectKind::Slip]);
-    let mut truth = m.clone();
-    truth.seed = 12;
-    truth.duration_s = 1.0;
-    truth.effects.enable(EffectKind::LoadZone);
-    Param::RadialLoadN.set(&mut truth, 200.0);
-    let measured = model::simulate(&truth).unwrap();
+    let measured = with_load_zone_200_n(&m);
     let on = LoopOptions { strength_range: true, ..opts.clone() };
     let (d, calls, expected) = diagnose_counting(&m, &measured, &on);
     assert_eq!(calls, expected);
