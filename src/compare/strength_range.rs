@@ -92,34 +92,36 @@ pub fn profile_points(x: f64, lo: f64, hi: f64, log: bool) -> Vec<f64> {
 }
 
 /// The parameters re-fitted at every profile point of effect `k` on the calibrated machine
-/// `cal`: the calibration's and the effect's own besides its strength.
+/// `cal`: the calibration's and the effect's own, all but its strength (which for `noise` is
+/// a calibration parameter itself).
 fn released(cal: &Machine, k: EffectKind, opts: &LoopOptions) -> Vec<Param> {
     let main = Param::main_of_effect(k);
     let mut ps = calibration_parameters_for(cal, opts);
     for p in Param::of_effect(k) {
-        if Some(p) != main && !ps.contains(&p) {
+        if !ps.contains(&p) {
             ps.push(p);
         }
     }
+    ps.retain(|p| Some(*p) != main);
     ps
 }
 
 /// The model evaluations [`strength_range`] makes for `d`'s chosen effect on `cal`; 0 when it
 /// makes none (nothing chosen, or the effect has no strength).
 pub fn strength_range_evaluations(cal: &Machine, d: &Diagnosis, opts: &LoopOptions) -> usize {
-    let Some((fm, p, x)) = chosen_fit(cal, d) else { return 0 };
+    let Some((k, fm, p, x)) = chosen_fit(cal, d) else { return 0 };
     let (lo, hi, log) = p.bounds(&fm);
-    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, d.best.unwrap_or(EffectKind::Noise), opts), opts)
+    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, k, opts), opts)
 }
 
-/// `d`'s chosen trial applied to `cal`, with its strength parameter and fitted value.
-fn chosen_fit(cal: &Machine, d: &Diagnosis) -> Option<(Machine, Param, f64)> {
+/// `d`'s chosen effect, its trial applied to `cal`, its strength parameter and fitted value.
+fn chosen_fit(cal: &Machine, d: &Diagnosis) -> Option<(EffectKind, Machine, Param, f64)> {
     let k = d.best?;
     let t = d.trials.iter().find(|t| t.effect == k)?;
     let (p, x) = t.parameter?;
     let mut fm = cal.clone();
     apply_trial(&mut fm, t);
-    Some((fm, p, x))
+    Some((k, fm, p, x))
 }
 
 /// The range of the chosen effect's strength of diagnosis `d` made on the calibrated machine
@@ -128,8 +130,7 @@ fn chosen_fit(cal: &Machine, d: &Diagnosis) -> Option<(Machine, Param, f64)> {
 /// effect has no strength (a contact made nonlinear). Profile points run in parallel; every
 /// evaluation is reported to `progress` (expected by the caller: [`strength_range_evaluations`]).
 pub fn strength_range(cal: &Machine, d: &Diagnosis, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<Option<StrengthRange>, LoopError> {
-    let Some((fm, p, x)) = chosen_fit(cal, d) else { return Ok(None) };
-    let k = d.best.expect("chosen_fit needs a chosen effect");
+    let Some((k, fm, p, x)) = chosen_fit(cal, d) else { return Ok(None) };
     let (lo, hi, log) = p.bounds(&fm);
     let points = profile_points(x, lo, hi, log);
     let refit = released(cal, k, opts);
@@ -210,6 +211,19 @@ mod tests {
         // Linear: steps are shares of the range.
         let v = profile_points(0.5, 0.0, 1.0, false);
         assert!((v[0] - 0.34).abs() < 1e-12 && (v[6] - 0.66).abs() < 1e-12, "{v:?}");
+    }
+
+    #[test]
+    fn every_free_parameter_but_the_held_strength_is_re_fitted() {
+        let mut m = crate::model::preset("cwru_6205_inner").unwrap();
+        m.effects.enable(EffectKind::Noise);
+        let opts = LoopOptions::default();
+        // Noise: its strength is the calibration's noise level, held, not re-fitted.
+        let r = released(&m, EffectKind::Noise, &opts);
+        assert!(!r.contains(&Param::NoiseSnrDb) && r.contains(&Param::ResonanceHz), "{r:?}");
+        // A load zone: the load held, its clearance re-fitted with the calibration.
+        let r = released(&m, EffectKind::LoadZone, &opts);
+        assert!(!r.contains(&Param::RadialLoadN) && r.contains(&Param::RadialClearanceM) && r.contains(&Param::NoiseSnrDb), "{r:?}");
     }
 
     #[test]
