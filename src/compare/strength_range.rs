@@ -153,8 +153,9 @@ pub fn strength_range(cal: &Machine, d: &Diagnosis, reference: &Reference, opts:
 
 /// The range from a profile (by value, containing the fitted `x`): from the fitted point
 /// outwards on each side, the last value whose objective is within `tolerance` of the fitted
-/// point's, extended to where the line to the next point crosses that level (in the search
-/// coordinate: log for a log-scaled parameter). A side whose every point passes is open.
+/// point's, extended to where the objective between it and the next point crosses that level
+/// (in the search coordinate: log for a log-scaled parameter): a parabola from the fitted
+/// point, a chord between two further points. A side whose every point passes is open.
 pub fn range_of_profile(p: Param, x: f64, profile: &[(f64, f64)], tolerance: f64, bounds: (f64, f64), log: bool) -> StrengthRange {
     let from = |v: f64| if log { v.ln() } else { v };
     let to = |u: f64| if log { u.exp() } else { u };
@@ -179,7 +180,12 @@ pub fn range_of_profile(p: Param, x: f64, profile: &[(f64, f64)], tolerance: f64
                 if !b.1.is_finite() || b.1 <= a.1 {
                     return (a.0, false);
                 }
-                let s = ((level - a.1) / (b.1 - a.1)).clamp(0.0, 1.0);
+                // From the fitted point the objective rises as the square of the distance
+                // (a smooth minimum): a chord there would end the range too early, by far
+                // for a sharp minimum whose first profile step is already well outside.
+                // Further out, between two points, the chord.
+                let share = (level - a.1) / (b.1 - a.1);
+                let s = if i as usize == i0 { share.max(0.0).sqrt() } else { share }.clamp(0.0, 1.0);
                 return (to(from(a.0) + s * (from(b.0) - from(a.0))), false);
             }
             i = next;
@@ -243,6 +249,11 @@ mod tests {
         let shifted: Vec<(f64, f64)> = pts.iter().map(|&v| (v, 1.0 + (v.ln() - 0.45f64.ln()).powi(2))).collect();
         let r = range_of_profile(Param::MeshVariation, x, &shifted, 0.04, (0.02, 0.8), true);
         assert!(r.lowest.0 < x && r.lowest.1 < r.objective_fitted && r.text().contains("lowest objective at"), "{r:?}");
+        // A sharp minimum, every step outside: the parabola from the fitted point gives the
+        // ends exactly (tolerance 0.004: |u − ln 0.5| ≤ 0.0632), where a chord would stop at
+        // a third of the first step.
+        let r = range_of_profile(Param::MeshVariation, x, &profile, 0.004, (0.02, 0.8), true);
+        assert!((r.low.ln() - (x.ln() - 0.004f64.sqrt())).abs() < 1e-9 && (r.high.ln() - (x.ln() + 0.004f64.sqrt())).abs() < 1e-9, "{r:?}");
         // A flat profile: open on both sides, the range spanning every point (0.2: no step
         // reaches a bound).
         let pts = profile_points(0.2, 0.02, 0.8, true);
