@@ -557,6 +557,34 @@ fn model_loop_says_when_a_diagnosis_is_a_second_look() {
     assert!(h.query_by_label_contains("that search said: nothing significant is missing (best trial: slip explains 12 %)").is_some());
 }
 
+/// The strength-range setting reaches the search's options, and a diagnosis with a range
+/// shows it under the verdict, with the open side marked.
+#[test]
+fn model_loop_shows_the_strength_range_of_the_chosen_effect() {
+    use twinscope::compare::strength_range::StrengthRange;
+    use twinscope::compare::{Diagnosis, Fit, LoopOptions, Param};
+    use twinscope::gui::session::LoopResult;
+    let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::GearMesh]);
+    assert!(!h.state().settings.loop_options(Default::default()).strength_range, "off by default");
+    h.get_by_label("Search settings").click();
+    h.run_steps(2);
+    h.get_by_label("strength range: the chosen effect's strength with the range the data cannot tell from it").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).strength_range);
+    let m = h.state().session.model.machine.clone();
+    let name = h.state().session.signals[0].signal.name.clone();
+    {
+        let profile = vec![(0.4, 2.33), (0.646, 2.318), (0.722, 2.357), (0.8, 2.394)];
+        let range = StrengthRange { parameter: Param::MeshVariation, fitted: 0.722, low: 0.4, high: 0.8, low_open: true, high_open: false, objective_fitted: 2.357, tolerance: 0.29, profile, lowest: (0.646, 2.318) };
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, verdict: "gear_mesh: ...".into(), strength_range: Some(range), ..Default::default() };
+        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions::default(), started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0, refitted: None });
+    }
+    h.run_steps(3);
+    let shown = labels_containing(&h, "Strength range:");
+    assert_eq!(shown.len(), 1, "{shown:?}");
+    assert!(shown[0].contains("effects.gear_mesh.variation_fraction = 7.220e-1") && shown[0].contains("4.000e-1") && shown[0].contains("8.000e-1") && shown[0].contains("lowest objective at 6.460e-1"), "{}", shown[0]);
+}
+
 /// The evidence list says which trial's best fit started from the uncalibrated values (the
 /// second start of unbending or of `LoopOptions::uncalibrated_start`) and no more.
 #[test]
