@@ -824,7 +824,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             } else {
                 ""
             };
-            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}){pinned}{redo}, applied: {}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
+            // The range of the applied effect's strength, when the round's search made one for it.
+            let range = r.strength_range.as_ref().filter(|sr| r.applied.and_then(compare::Param::main_of_effect) == Some(sr.parameter)).map(|sr| format!(", strength range {}", sr.text())).unwrap_or_default();
+            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}){pinned}{redo}, applied: {}{range}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
         }
     }
     if let Some(p) = json {

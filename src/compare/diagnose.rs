@@ -1294,6 +1294,10 @@ pub struct Round {
     /// without the option.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub top_second_starts_won: Vec<EffectKind>,
+    /// With `LoopOptions::strength_range`: the range of the strength of the effect the round's
+    /// diagnosis chose ([`Diagnosis::strength_range`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strength_range: Option<super::strength_range::StrengthRange>,
 }
 
 impl Round {
@@ -1330,6 +1334,7 @@ impl Round {
             unbent_when_stuck: d.stuck_plain_verdict.is_some(),
             unbent_when_short: d.short_plain.is_some(),
             top_second_starts_won: d.top_second_starts_won.clone(),
+            strength_range: d.strength_range.clone(),
             ..Default::default()
         }
     }
