@@ -417,7 +417,7 @@ fn reseeded(m: &Machine, salt: u64) -> Machine {
 }
 
 /// Seeds of the re-runs behind [`objective_scatter`].
-const SCATTER_SEEDS: [u64; 2] = [0x5CA7_0001, 0x5CA7_0002];
+pub const SCATTER_SEEDS: [u64; 2] = [0x5CA7_0001, 0x5CA7_0002];
 
 /// The standard deviation of the objective of `m` against the measurement over the model's
 /// seed (its own and [`SCATTER_SEEDS`]): how much a trial's objective moves by chance alone.

@@ -8,12 +8,13 @@
 //! strength in stage 2"). The range is a profile, as a profile likelihood is built: the
 //! strength is held at values on both sides of the fit, every other free parameter (the
 //! calibrated ones and the effect's others) is re-fitted locally at each, and the range is
-//! where that best objective stays within the tie band of the diagnosis (2√2 σ of the seed
-//! scatter, the band within which [`super::diagnose::decide`] calls two trials tied),
-//! interpolated linearly between profile points.
+//! where that best objective stays within a tie band (2√2 σ, the band within which
+//! [`super::diagnose::decide`] calls two trials tied; σ the larger seed scatter of the
+//! calibrated model's objective and of the fitted machine's),
+//! interpolated between profile points (a parabola from the fitted point, chords further out).
 
 use super::calibrate::{calibration_parameters_for, fit_trial, fit_trial_evaluations, LoopError, LoopOptions, LoopProgress, Param};
-use super::diagnose::{apply_trial, Diagnosis};
+use super::diagnose::{apply_trial, objective_scatter, Diagnosis, SCATTER_SEEDS};
 use super::Reference;
 use crate::model::{EffectKind, Machine};
 use rayon::prelude::*;
@@ -42,7 +43,8 @@ pub struct StrengthRange {
     pub high_open: bool,
     /// The objective of the fitted value, re-fitted the same way as every profile point.
     pub objective_fitted: f64,
-    /// The tolerance on the objective: 2√2 σ of the diagnosis's seed scatter.
+    /// The tolerance on the objective: 2√2 σ, σ the larger seed scatter of the calibrated
+    /// model's objective and of the fitted machine's.
     pub tolerance: f64,
     /// The profile: (value, best objective with every other free parameter re-fitted), by value.
     pub profile: Vec<(f64, f64)>,
@@ -111,7 +113,7 @@ fn released(cal: &Machine, k: EffectKind, opts: &LoopOptions) -> Vec<Param> {
 pub fn strength_range_evaluations(cal: &Machine, d: &Diagnosis, opts: &LoopOptions) -> usize {
     let Some((k, fm, p, x)) = chosen_fit(cal, d) else { return 0 };
     let (lo, hi, log) = p.bounds(&fm);
-    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, k, opts), opts)
+    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, k, opts), opts) + SCATTER_SEEDS.len()
 }
 
 /// `d`'s chosen effect, its trial applied to `cal`, its strength parameter and fitted value.
@@ -147,7 +149,15 @@ pub fn strength_range(cal: &Machine, d: &Diagnosis, reference: &Reference, opts:
         return Err(LoopError::Cancelled);
     }
     let profile: Vec<(f64, f64)> = profile.into_iter().collect::<Result<_, _>>()?;
-    let tolerance = 2.0 * std::f64::consts::SQRT_2 * d.objective_scatter;
+    // The seed scatter of the fitted machine itself, besides the calibrated model's: with a
+    // hidden noise the model without it draws nothing at random (scatter 0), and the range
+    // would shrink to a point.
+    let t = d.trials.iter().find(|t| t.effect == k).expect("chosen_fit found the trial");
+    let own = objective_scatter(&fm, reference, t.objective_fitted.unwrap_or(t.objective_after), opts)?;
+    for _ in SCATTER_SEEDS {
+        progress.tick();
+    }
+    let tolerance = 2.0 * std::f64::consts::SQRT_2 * d.objective_scatter.max(own);
     Ok(Some(range_of_profile(p, x, &profile, tolerance, (lo, hi), log)))
 }
 
