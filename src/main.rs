@@ -962,17 +962,18 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             println!("recoverable and not chosen: {}", missed.join("; "));
         }
         // With --strength-range: does the chosen hidden effect's range hold its true value?
-        let ranged: Vec<String> = results
+        let ranged: Vec<(bool, String)> = results
             .iter()
             .filter(|r| r.chosen.is_some() && r.chosen == r.hidden)
             .filter_map(|r| {
                 let (range, (p, v), k) = (r.strength_range.as_ref()?, r.true_parameter?, r.hidden?);
-                (range.parameter == p).then(|| format!("{} {v:.3e}: {} {}", k.name(), range.text(), if range.contains(v) { "holds it" } else { "misses it" }))
+                let holds = range.contains(v);
+                (range.parameter == p).then(|| (holds, format!("{} {v:.3e}: {} {}", k.name(), range.text(), if holds { "holds it" } else { "misses it" })))
             })
             .collect();
         if !ranged.is_empty() {
-            let held = ranged.iter().filter(|t| t.ends_with("holds it")).count();
-            println!("strength ranges holding the true value: {held} of {}: {}", ranged.len(), ranged.join("; "));
+            let held = ranged.iter().filter(|(holds, _)| *holds).count();
+            println!("strength ranges holding the true value: {held} of {}: {}", ranged.len(), ranged.iter().map(|(_, t)| t.as_str()).collect::<Vec<_>>().join("; "));
         }
     }
     if groups.is_empty() {

@@ -675,10 +675,9 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let (cal, mut d) = diagnose_search(m, reference, opts, progress)?;
     if opts.strength_range {
-        let looked = d.second_look.as_ref().map(|s| LoopOptions { realisations: s.realisations, ..opts.clone() });
-        let judged = looked.as_ref().unwrap_or(opts);
-        progress.expect(super::strength_range::strength_range_evaluations(&cal, &d, judged));
-        d.strength_range = super::strength_range::strength_range(&cal, &d, reference, judged, progress)?;
+        let judged = judged_options(&d, opts);
+        progress.expect(super::strength_range::strength_range_evaluations(&cal, &d, &judged));
+        d.strength_range = super::strength_range::strength_range(&cal, &d, reference, &judged, progress)?;
     }
     Ok((cal, d))
 }
@@ -1409,8 +1408,15 @@ fn stuck(d: &Diagnosis, opts: &LoopOptions) -> bool {
 /// ([`above_floor`]); false without a floor. A second look's floor is of several
 /// realisations, with the ratio that goes with them.
 fn above_floor_of(d: &Diagnosis, j: f64, opts: &LoopOptions) -> bool {
-    let looked = d.second_look.as_ref().map(|s| LoopOptions { realisations: s.realisations, ..opts.clone() });
-    d.floor_objective > 0.0 && above_floor(j, d.floor_objective, looked.as_ref().unwrap_or(opts))
+    d.floor_objective > 0.0 && above_floor(j, d.floor_objective, &judged_options(d, opts))
+}
+
+/// The options `d` was judged with: `opts`, with a second look's realisations when `d` is one.
+fn judged_options(d: &Diagnosis, opts: &LoopOptions) -> LoopOptions {
+    match &d.second_look {
+        Some(s) => LoopOptions { realisations: s.realisations, ..opts.clone() },
+        None => opts.clone(),
+    }
 }
 
 /// The replacements worth trying when the loop is stuck, best first, at most

@@ -14,7 +14,7 @@
 //! interpolated between profile points (a parabola from the fitted point, chords further out).
 
 use super::calibrate::{calibration_parameters_for, fit_trial, fit_trial_evaluations, LoopError, LoopOptions, LoopProgress, Param};
-use super::diagnose::{apply_trial, objective_scatter, Diagnosis, SCATTER_SEEDS};
+use super::diagnose::{apply_trial, objective_scatter, Diagnosis, EffectTrial, SCATTER_SEEDS};
 use super::Reference;
 use crate::model::{EffectKind, Machine};
 use rayon::prelude::*;
@@ -111,19 +111,19 @@ fn released(cal: &Machine, k: EffectKind, opts: &LoopOptions) -> Vec<Param> {
 /// The model evaluations [`strength_range`] makes for `d`'s chosen effect on `cal`; 0 when it
 /// makes none (nothing chosen, or the effect has no strength).
 pub fn strength_range_evaluations(cal: &Machine, d: &Diagnosis, opts: &LoopOptions) -> usize {
-    let Some((k, fm, p, x)) = chosen_fit(cal, d) else { return 0 };
+    let Some((t, fm, p, x)) = chosen_fit(cal, d) else { return 0 };
     let (lo, hi, log) = p.bounds(&fm);
-    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, k, opts), opts) + SCATTER_SEEDS.len()
+    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, t.effect, opts), opts) + SCATTER_SEEDS.len()
 }
 
-/// `d`'s chosen effect, its trial applied to `cal`, its strength parameter and fitted value.
-fn chosen_fit(cal: &Machine, d: &Diagnosis) -> Option<(EffectKind, Machine, Param, f64)> {
+/// `d`'s chosen trial, applied to `cal`, with its strength parameter and fitted value.
+fn chosen_fit<'d>(cal: &Machine, d: &'d Diagnosis) -> Option<(&'d EffectTrial, Machine, Param, f64)> {
     let k = d.best?;
     let t = d.trials.iter().find(|t| t.effect == k)?;
     let (p, x) = t.parameter?;
     let mut fm = cal.clone();
     apply_trial(&mut fm, t);
-    Some((k, fm, p, x))
+    Some((t, fm, p, x))
 }
 
 /// The range of the chosen effect's strength of diagnosis `d` made on the calibrated machine
@@ -132,16 +132,16 @@ fn chosen_fit(cal: &Machine, d: &Diagnosis) -> Option<(EffectKind, Machine, Para
 /// effect has no strength (a contact made nonlinear). Profile points run in parallel; every
 /// evaluation is reported to `progress` (expected by the caller: [`strength_range_evaluations`]).
 pub fn strength_range(cal: &Machine, d: &Diagnosis, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<Option<StrengthRange>, LoopError> {
-    let Some((k, fm, p, x)) = chosen_fit(cal, d) else { return Ok(None) };
+    let Some((t, fm, p, x)) = chosen_fit(cal, d) else { return Ok(None) };
     let (lo, hi, log) = p.bounds(&fm);
     let points = profile_points(x, lo, hi, log);
-    let refit = released(cal, k, opts);
+    let refit = released(cal, t.effect, opts);
     let profile: Vec<Result<(f64, f64), LoopError>> = points
         .par_iter()
         .map(|&v| {
-            let mut t = fm.clone();
-            p.set(&mut t, v);
-            let (_, f) = fit_trial(&t, reference, &[], &refit, opts, progress)?;
+            let mut held = fm.clone();
+            p.set(&mut held, v);
+            let (_, f) = fit_trial(&held, reference, &[], &refit, opts, progress)?;
             Ok((v, f.objective_after))
         })
         .collect();
@@ -152,7 +152,6 @@ pub fn strength_range(cal: &Machine, d: &Diagnosis, reference: &Reference, opts:
     // The seed scatter of the fitted machine itself, besides the calibrated model's: with a
     // hidden noise the model without it draws nothing at random (scatter 0), and the range
     // would shrink to a point.
-    let t = d.trials.iter().find(|t| t.effect == k).expect("chosen_fit found the trial");
     let own = objective_scatter(&fm, reference, t.objective_fitted.unwrap_or(t.objective_after), opts)?;
     for _ in SCATTER_SEEDS {
         progress.tick();
@@ -179,8 +178,10 @@ pub fn range_of_profile(p: Param, x: f64, profile: &[(f64, f64)], tolerance: f64
             let next = i + step;
             if next < 0 || next >= profile.len() as isize {
                 let v = profile[i as usize].0;
-                // An end at the search range's bound is closed by the bound itself.
-                let at_bound = (step < 0 && v <= bounds.0 * (1.0 + 1e-9)) || (step > 0 && v >= bounds.1 * (1.0 - 1e-9));
+                // An end at the search range's bound is closed by the bound itself (a
+                // tolerance on the range's width: a noise level's bound is negative).
+                let eps = 1e-9 * (bounds.1 - bounds.0).abs();
+                let at_bound = (step < 0 && v <= bounds.0 + eps) || (step > 0 && v >= bounds.1 - eps);
                 return (v, !at_bound);
             }
             let (a, b) = (profile[i as usize], profile[next as usize]);
@@ -275,6 +276,13 @@ mod tests {
         let flat: Vec<(f64, f64)> = pts.iter().map(|&v| (v, 1.0)).collect();
         let r = range_of_profile(Param::MeshVariation, 0.8, &flat, 0.04, (0.02, 0.8), true);
         assert!(r.low_open && !r.high_open && r.high == 0.8, "{r:?}");
+        // A linear range with a negative bound (a noise level, −10 to 40 dB): a profile
+        // reaching −10 is closed there.
+        let pts_db = profile_points(-8.0, -10.0, 40.0, false);
+        assert_eq!(pts_db[0], -10.0);
+        let flat_db: Vec<(f64, f64)> = pts_db.iter().map(|&v| (v, 1.0)).collect();
+        let r = range_of_profile(Param::NoiseSnrDb, -8.0, &flat_db, 0.04, (-10.0, 40.0), false);
+        assert!(!r.low_open && r.low == -10.0 && r.high_open, "{r:?}");
         // A failed point (not finite) closes the side at the last good one.
         let mut broken = flat.clone();
         broken[0].1 = f64::NAN;
