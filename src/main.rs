@@ -799,6 +799,10 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         if t.from_uncalibrated {
             println!("    {:<18} its best fit started from the uncalibrated values, not from the calibration", "");
         }
+        if !t.fine_cell_won.is_empty() {
+            let names: Vec<&str> = t.fine_cell_won.iter().map(|p| p.name()).collect();
+            println!("    {:<18} {} ended lower from the fine grid's cell than from the coarse grid's (--fine-force-scan)", "", names.join(", "));
+        }
     }
     for (k, why) in &last.failed_trials {
         println!("    {:<18} not ranked: its trial failed: {why}", k.name());

@@ -1251,6 +1251,7 @@ fn a_second_force_grid_finds_the_notch_the_golden_section_steps_over() {
         let reference = Reference::new(&measured, &opts.compare).unwrap();
         let (m, f) = fit_trial_scanning(&start, &reference, &ps, &refine, &ps, &opts, &LoopProgress::new(&|_, _| true)).unwrap();
         assert_eq!(f.evaluations, fit_trial_scanning_evaluations(&start, &ps, &refine, &ps, &opts), "fine_force_scan {fine_force_scan}: the count the progress expects");
+        assert_eq!(f.fine_cell_won.is_empty(), !fine_force_scan, "fine_force_scan {fine_force_scan}: the fine cell's start won, and the fit records it");
         (Param::Misalignment2xN.get(&m).unwrap() / true_force, f.objective_after, f.evaluations)
     };
     let (coarse, j_coarse, n_coarse) = run(false);

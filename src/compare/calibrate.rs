@@ -809,6 +809,11 @@ pub struct Fit {
     /// from sweep to sweep), with that range `(low, high)`.
     #[serde(default)]
     pub at_bound: Vec<(Param, f64, f64)>,
+    /// Forces whose full-range line search ended lower from the fine cell's start than from
+    /// the coarse cell's ([`LoopOptions::fine_force_scan`]); empty without it, and where the
+    /// coarse start won the fit is the one the plain search makes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fine_cell_won: Vec<Param>,
 }
 
 impl Fit {
@@ -938,6 +943,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
     let schedule = (0..sweeps).flat_map(|_| searches.iter().copied()).chain((0..polish).flat_map(|s| params.iter().map(move |p| (*p, Some(POLISH_HALF_WIDTH * 0.5f64.powi(s as i32))))));
     // The range each full-range search last used (a resonance's range moves with its value).
     let mut searched_bounds: Vec<(Param, f64, f64, bool)> = Vec::new();
+    let mut fine_cell_won: Vec<Param> = Vec::new();
     for (p, local) in schedule {
         let (lo, hi, log) = p.bounds(&best_m);
         if local.is_none() {
@@ -1022,8 +1028,10 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
         let (mut u, mut j) = golden(&mut eval_at, a, b, golden_n, u0, j0);
         if let Some((a1, b1, u1, j1)) = coarse_cell {
             let (uc, jc) = golden(&mut eval_at, a1, b1, golden_n, u1, j1);
-            if jc < j {
+            if jc <= j {
                 (u, j) = (uc, jc);
+            } else if !fine_cell_won.contains(&p) {
+                fine_cell_won.push(p);
             }
         }
         if let Some((u_top, j_top)) = top.filter(|&(_, j_top)| j_top < j) {
@@ -1055,6 +1063,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
             evaluations: evals,
             domains: domain_pairs(&c0, &best_c),
             at_bound,
+            fine_cell_won,
         },
     ))
 }

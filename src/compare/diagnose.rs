@@ -86,6 +86,11 @@ pub struct EffectTrial {
     /// ([`Diagnosis::unbent`]) or `LoopOptions::uncalibrated_start` any trial may.
     #[serde(default)]
     pub from_uncalibrated: bool,
+    /// Forces of the fit that won whose search ended lower from the fine cell's start
+    /// ([`Fit::fine_cell_won`], with `LoopOptions::fine_force_scan`): where it is empty the
+    /// trial is the one the plain search makes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fine_cell_won: Vec<Param>,
 }
 
 /// What the CLI and the app print when a diagnosis's floor is 0: nothing in the model is
@@ -922,7 +927,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
         let (reduction, explained) = shares(j0, j, floor);
         let (ev, ev_share) = evidence(k, &map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None });
         let summary = trial_summary(k, &ev, parameter, &extra, (env0, env), (j0, j));
-        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None, from_uncalibrated: false }
+        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None, from_uncalibrated: false, fine_cell_won: f.fine_cell_won.clone() }
     };
     // The plain trial's fit of `k` from `t` (the effect's parameters, then the noise level
     // refined), each of `scan` first scanned on a grid; `reported` are the parameters besides
@@ -1815,6 +1820,7 @@ mod tests {
             effect_explained: None,
             objective_fitted: None,
             from_uncalibrated: false,
+            fine_cell_won: vec![],
         }
     }
 
