@@ -276,6 +276,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         // values (`LoopOptions::uncalibrated_start`, experimental).
         let opts = LoopOptions { candidates: all.clone(), uncalibrated_start: true, ..Default::default() };
         search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, every trial also from the uncalibrated values", meas.duration_s(), all.len()))?;
+        // The same full search with a force's second grid inside the coarse grid's best cell
+        // and its golden section beside the coarse cell's (`LoopOptions::fine_force_scan`).
+        let opts = LoopOptions { candidates: all.clone(), fine_force_scan: true, ..Default::default() };
+        search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, a force's fine cell as a second start (--fine-force-scan)", meas.duration_s(), all.len()))?;
     }
 
     rows.extend(display_rows(r));

@@ -810,7 +810,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     println!("\nverdict: {}", last.verdict);
     if let Some(r) = &last.strength_range {
         println!(
-            "strength range: {} — the values whose objective, every other free parameter re-fitted, stays within {:.2} (2√2 × the seed scatter) of the fitted value's {:.2}; profile: {}",
+            "strength range: {} — the values whose objective, every other free parameter re-fitted, stays within {:.2} (2√2 × the larger seed scatter, the calibrated model's or the fitted machine's) of the fitted value's {:.2}; profile: {}",
             r.text(),
             r.tolerance,
             r.objective_fitted,

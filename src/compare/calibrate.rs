@@ -829,10 +829,28 @@ impl Fit {
 /// stand in for a missing effect (a fault depth driven to its floor while a hidden casing mode
 /// and misalignment shape the spectrum).
 pub fn at_search_bound(x: f64, lo: f64, hi: f64, log: bool) -> bool {
-    let s = |v: f64| if log { v.max(1e-300).ln() } else { v };
-    let (a, b) = (s(lo), s(hi));
-    let u = (s(x) - a) / (b - a);
+    let (a, b) = (to_search_scale(lo, log), to_search_scale(hi, log));
+    let u = (to_search_scale(x, log) - a) / (b - a);
     b > a && !(0.02..=0.98).contains(&u)
+}
+
+/// A parameter's value on its search scale: the logarithm on a log-scaled range (the value
+/// floored at 1e-300), the value itself on a linear one.
+pub fn to_search_scale(x: f64, log: bool) -> f64 {
+    if log {
+        x.max(1e-300).ln()
+    } else {
+        x
+    }
+}
+
+/// The value at a point `u` of a search scale (the inverse of [`to_search_scale`]).
+pub fn from_search_scale(u: f64, log: bool) -> f64 {
+    if log {
+        u.exp()
+    } else {
+        u
+    }
 }
 
 /// Golden-section search of `f` over `[a, b]` with `evals` evaluations, starting bracket known
@@ -950,8 +968,8 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
             searched_bounds.retain(|e| e.0 != p);
             searched_bounds.push((p, lo, hi, log));
         }
-        let to = |u: f64| if log { u.exp() } else { u };
-        let from = |x: f64| if log { x.max(1e-300).ln() } else { x };
+        let to = |u: f64| from_search_scale(u, log);
+        let from = |x: f64| to_search_scale(x, log);
         let x0 = p.get(&best_m).unwrap_or(lo).clamp(lo, hi);
         let mut cache: Vec<(f64, f64, Comparison, f64)> = Vec::new();
         let base = best_m.clone();

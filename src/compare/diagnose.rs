@@ -678,7 +678,13 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// strength ([`Diagnosis::strength_range`]), judged with the realisations of the search that
 /// chose it.
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
-    let (cal, mut d) = diagnose_search(m, reference, opts, progress)?;
+    let (cal, d) = diagnose_search(m, reference, opts, progress)?;
+    with_strength_range(cal, d, reference, opts, progress)
+}
+
+/// With [`LoopOptions::strength_range`], `d` with the range of its chosen effect's strength,
+/// judged with the realisations of the search that chose it; else `d` as it is.
+fn with_strength_range(cal: Machine, mut d: Diagnosis, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     if opts.strength_range {
         let judged = judged_options(&d, opts);
         progress.expect(super::strength_range::strength_range_evaluations(&cal, &d, &judged));
@@ -1693,7 +1699,8 @@ pub fn check_loop_rounds(n: usize) -> Result<(), super::CompareError> {
 /// With [`LoopOptions::unbend_when_stuck`] the round's own diagnosis may be searched again
 /// unbent (see [`diagnose_with`]); the replacement and re-fit diagnoses of a stuck round are
 /// searched plainly ([`searched_plainly`]), so a stuck round pays one unbent search, not one
-/// per candidate model.
+/// per candidate model. With [`LoopOptions::strength_range`] they get no range while they
+/// are judged; the kept one gets it as the next round's diagnosis.
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     opts.validate()?;
     check_loop_rounds(rounds)?;
@@ -1708,7 +1715,9 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
     let mut opts = opts.clone();
     for r in 1..=rounds {
         let (cal, d) = match pending.take() {
-            Some(x) => x,
+            // A kept replacement's search got no strength range (most are refused): it gets it
+            // now that it is the round's diagnosis.
+            Some((cal, d)) => with_strength_range(cal, d, &reference, &opts, progress)?,
             None => diagnose_with(&current, &reference, &opts, progress)?,
         };
         let env = d.envelope_nrmse().unwrap_or(f64::INFINITY);
@@ -1739,7 +1748,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 o.refit_effects.push(b);
                 // The effect taken out is not tried again (see `judge_replacement`).
                 exclude_candidates(&mut o, &swapped, &[a]);
-                let (cal2, d2) = diagnose_with(&swapped, &reference, &searched_plainly(&o), progress)?;
+                let (cal2, d2) = diagnose_search(&swapped, &reference, &searched_plainly(&o), progress)?;
                 round.note_second_starts_won(&d2);
                 let j = judge_replacement(&d, a, b, &cal2, &d2);
                 if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {
@@ -1751,7 +1760,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             if kept.is_none() && opts.refit_when_stuck {
                 for a in refit_candidates(&history, &current) {
                     let refitted = refit_from_uncalibrated(&cal, m, a, &reference, &opts, progress)?;
-                    let (cal2, d2) = diagnose_with(&refitted, &reference, &searched_plainly(&opts), progress)?;
+                    let (cal2, d2) = diagnose_search(&refitted, &reference, &searched_plainly(&opts), progress)?;
                     round.note_second_starts_won(&d2);
                     let j = judge_replacement(&d, a, a, &cal2, &d2);
                     if j.kept() && kept.as_ref().is_none_or(|k| j.reaches < k.0.reaches) {

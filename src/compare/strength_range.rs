@@ -13,7 +13,7 @@
 //! calibrated model's objective and of the fitted machine's),
 //! interpolated between profile points (a parabola from the fitted point, chords further out).
 
-use super::calibrate::{calibration_parameters_for, fit_trial, fit_trial_evaluations, LoopError, LoopOptions, LoopProgress, Param};
+use super::calibrate::{calibration_parameters_for, fit_trial, fit_trial_evaluations, from_search_scale, to_search_scale, LoopError, LoopOptions, LoopProgress, Param};
 use super::diagnose::{apply_trial, objective_scatter, Diagnosis, EffectTrial, SCATTER_SEEDS};
 use super::Reference;
 use crate::model::{EffectKind, Machine};
@@ -75,8 +75,8 @@ impl StrengthRange {
 /// `x` itself and [`PROFILE_STEPS`] on each side, those beyond the bounds dropped (the bound
 /// itself is kept once when a step crosses it), in increasing order.
 pub fn profile_points(x: f64, lo: f64, hi: f64, log: bool) -> Vec<f64> {
-    let to = |u: f64| if log { u.exp() } else { u };
-    let from = |x: f64| if log { x.ln() } else { x };
+    let to = |u: f64| from_search_scale(u, log);
+    let from = |x: f64| to_search_scale(x, log);
     let (a, b) = (from(lo), from(hi));
     let u0 = from(x).clamp(a, b);
     let w = b - a;
@@ -166,8 +166,8 @@ pub fn strength_range(cal: &Machine, d: &Diagnosis, reference: &Reference, opts:
 /// (in the search coordinate: log for a log-scaled parameter): a parabola from the fitted
 /// point, a chord between two further points. A side whose every point passes is open.
 pub fn range_of_profile(p: Param, x: f64, profile: &[(f64, f64)], tolerance: f64, bounds: (f64, f64), log: bool) -> StrengthRange {
-    let from = |v: f64| if log { v.ln() } else { v };
-    let to = |u: f64| if log { u.exp() } else { u };
+    let from = |v: f64| to_search_scale(v, log);
+    let to = |u: f64| from_search_scale(u, log);
     let i0 = (0..profile.len()).min_by(|&a, &b| (from(profile[a].0) - from(x)).abs().total_cmp(&(from(profile[b].0) - from(x)).abs())).unwrap_or(0);
     let j_fit = profile.get(i0).map_or(f64::NAN, |q| q.1);
     let level = j_fit + tolerance;

@@ -284,7 +284,7 @@ impl ModelLoopView {
         ui.add(egui::Label::new(if d.best.is_some() { verdict.strong() } else { verdict }).wrap());
         if let Some(sr) = &d.strength_range {
             ui.label(format!("Strength range: {}", drawable(&sr.text()))).on_hover_text(format!(
-                "the values whose objective, every other free parameter re-fitted, stays within {:.2} (2√2 × the seed scatter) of the fitted value's {:.2}; ≤ / ≥: the profile's last point on that side still passed\nprofile: {}",
+                "the values whose objective, every other free parameter re-fitted, stays within {:.2} (2√2 × the larger seed scatter, the calibrated model's or the fitted machine's) of the fitted value's {:.2}; ≤ / ≥: the profile's last point on that side still passed\nprofile: {}",
                 sr.tolerance,
                 sr.objective_fitted,
                 sr.profile.iter().map(|(v, j)| format!("{} → {j:.2}", fmt_num(*v))).collect::<Vec<_>>().join(", ")
