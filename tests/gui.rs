@@ -586,7 +586,8 @@ fn model_loop_shows_the_strength_range_of_the_chosen_effect() {
 }
 
 /// The evidence list says which trial's best fit started from the uncalibrated values (the
-/// second start of unbending or of `LoopOptions::uncalibrated_start`) and no more.
+/// second start of unbending or of `LoopOptions::uncalibrated_start`), and which force ended
+/// lower from the fine grid's cell (`LoopOptions::fine_force_scan`), and no more.
 #[test]
 fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
     use twinscope::compare::{Diagnosis, EffectTrial, Fit, LoopOptions, Param};
@@ -616,6 +617,8 @@ fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
         effect_explained: None,
         objective_fitted: None,
         from_uncalibrated,
+        // The unbalance's fit ended lower from the fine force cell (`--fine-force-scan`).
+        fine_cell_won: if from_uncalibrated { vec![] } else { vec![Param::UnbalanceKgM] },
     };
     {
         let trials = vec![trial(LoadZone, (Param::RadialLoadN, 86.0), 3.0, true), trial(Unbalance, (Param::UnbalanceKgM, 3e-4), 7.0, false)];
@@ -626,6 +629,9 @@ fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
     let marked = labels_containing(&h, "its best fit started from the uncalibrated values");
     assert_eq!(marked.len(), 1, "{marked:?}");
     assert!(marked[0].starts_with("1. load_zone"), "{marked:?}");
+    let fine = labels_containing(&h, "ended lower from the fine grid's cell");
+    assert_eq!(fine.len(), 1, "{fine:?}");
+    assert!(fine[0].starts_with("2. unbalance") && fine[0].contains("effects.unbalance.mass_eccentricity_kg_m ended lower"), "{fine:?}");
 }
 
 /// The model-loop view's history shows each round's seed floor next to its objective (what a

@@ -385,7 +385,8 @@ impl ModelLoopView {
                 let itself = t.effect_explained.map_or(String::new(), |e| format!("; switching it off again in the fitted model costs {:.0} %", e * 100.0));
                 let edge = t.not_a_finding_note().map_or(String::new(), |note| format!("; {note}"));
                 let start = if t.from_uncalibrated { "; its best fit started from the uncalibrated values" } else { "" };
-                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}{start}", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
+                let fine = if t.fine_cell_won.is_empty() { String::new() } else { format!("; {} ended lower from the fine grid's cell than from the coarse grid's", t.fine_cell_won.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")) };
+                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}{start}{fine}", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
             }
         });
     }
