@@ -238,6 +238,10 @@ pub struct LoopSpec {
     /// The chosen effect's strength gets the range the data cannot tell from its fitted value
     /// (`LoopOptions::strength_range`; in `model_loop.json`). Default: the library's (off).
     pub strength_range: bool,
+    /// A scanned force's amplitude also gets a second grid inside the coarse grid's best cell,
+    /// kept when its golden section ends lower (`LoopOptions::fine_force_scan`,
+    /// experimental). Default: the library's (off).
+    pub fine_force_scan: bool,
 }
 
 impl Default for LoopSpec {
@@ -272,6 +276,7 @@ impl Default for LoopSpec {
             realisations: o.realisations,
             random_effect_realisations: o.random_effect_realisations,
             strength_range: o.strength_range,
+            fine_force_scan: o.fine_force_scan,
         }
     }
 }
@@ -289,7 +294,7 @@ impl LoopSpec {
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
         crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: self.uncalibrated_start_top, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, strength_range: self.strength_range, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: self.uncalibrated_start_top, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, strength_range: self.strength_range, fine_force_scan: self.fine_force_scan, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
@@ -575,9 +580,18 @@ mod tests {
         }
         // Every search option the sample names with a value: a README line dropping its
         // "default" would otherwise pass silently.
-        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "uncalibrated_start_top", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts", "strength_range"] {
+        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "uncalibrated_start_top", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts", "strength_range", "fine_force_scan"] {
             assert!(checked.iter().any(|k| k == key), "README's [model_loop] sample states no default for `{key}`: {checked:?}");
         }
+    }
+
+    #[test]
+    fn a_model_loop_gives_forces_a_second_grid_only_when_asked() {
+        let chain = Chain { name: "none".into(), description: String::new(), stages: Vec::new() };
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"").unwrap();
+        assert!(!spec.options(&chain).unwrap().fine_force_scan);
+        let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfine_force_scan = true").unwrap();
+        assert!(spec.options(&chain).unwrap().fine_force_scan);
     }
 
     #[test]
