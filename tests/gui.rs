@@ -473,6 +473,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("near-floor rule: a decisive, untied trial is a finding from 1.2 × the floor (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).near_floor_rule);
+    // The experimental fine force cell: off until ticked (while forces are scanned).
+    assert!(!o.fine_force_scan);
+    h.get_by_label("fine force cell: a scanned force also gets a second, finer grid inside the coarse grid's best cell (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).fine_force_scan);
     // The scan of periodic forces: on by default (since session 40) until unticked.
     assert!(o.scan_force_amplitudes);
     h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid").click_accesskit();

@@ -77,6 +77,10 @@ pub struct Settings {
     /// Model loop: a periodic force's amplitude is fitted with twice the line-search
     /// evaluations (`LoopOptions::fine_forces`, on by default).
     pub loop_fine_forces: bool,
+    /// Model loop: a scanned force's amplitude also gets a second grid inside the coarse
+    /// grid's best cell, kept when it ends lower (`LoopOptions::fine_force_scan`,
+    /// experimental).
+    pub loop_fine_force_scan: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
     /// (`LoopOptions::polish_sweeps`; 0 = off, 4 by default since session 44).
     pub loop_polish_sweeps: usize,
@@ -118,6 +122,7 @@ impl Default for Settings {
             loop_strength_range: LoopOptions::default().strength_range,
             loop_uncalibrated_start_top: LoopOptions::default().uncalibrated_start_top,
             loop_fine_forces: LoopOptions::default().fine_forces,
+            loop_fine_force_scan: LoopOptions::default().fine_force_scan,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
             loop_polish_second_starts: LoopOptions::default().polish_second_starts,
             loop_scf_one_normaliser: LoopOptions::default().compare.scf_one_normaliser,
@@ -187,6 +192,7 @@ impl Settings {
             strength_range: self.loop_strength_range,
             uncalibrated_start_top: self.loop_uncalibrated_start_top,
             fine_forces: self.loop_fine_forces,
+            fine_force_scan: self.loop_fine_force_scan,
             polish_sweeps: self.loop_polish_sweeps,
             polish_second_starts: self.loop_polish_second_starts,
             ..Default::default()
@@ -255,6 +261,7 @@ mod tests {
             loop_strength_range: true,
             loop_uncalibrated_start_top: false,
             loop_fine_forces: false,
+            loop_fine_force_scan: true,
             loop_polish_sweeps: 0,
             loop_polish_second_starts: true,
             loop_scf_one_normaliser: false,
