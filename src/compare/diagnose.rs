@@ -86,9 +86,11 @@ pub struct EffectTrial {
     /// ([`Diagnosis::unbent`]) or `LoopOptions::uncalibrated_start` any trial may.
     #[serde(default)]
     pub from_uncalibrated: bool,
-    /// Forces of the fit that won whose search ended lower from the fine cell's start
-    /// ([`Fit::fine_cell_won`], with `LoopOptions::fine_force_scan`): where it is empty the
-    /// trial is the one the plain search makes.
+    /// Forces whose search ended lower from the fine cell's start ([`Fit::fine_cell_won`],
+    /// with `LoopOptions::fine_force_scan`) in the fit that won or in the fit stage 2's local
+    /// re-fit started from. A fit that lost is not recorded: without the fine cell it would
+    /// end no lower, and lose too. A case none of whose trials records a win is the one the
+    /// plain search makes.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fine_cell_won: Vec<Param>,
 }
@@ -201,6 +203,11 @@ pub struct Diagnosis {
     /// option is off: then the diagnosis is the one it would have been without the option.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub top_second_starts_won: Vec<EffectKind>,
+    /// With `LoopOptions::fine_force_scan`: the effects with a trial that records a fine-cell
+    /// win ([`EffectTrial::fine_cell_won`]), in this search or one it replaced. Empty when
+    /// none did, or the option is off: then the diagnosis is the one the plain search makes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fine_cell_won: Vec<EffectKind>,
     /// The transfer-path correction fitted to the calibrated model
     /// (`CompareOptions::path_correction_bands`); `None` when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -752,8 +759,10 @@ fn unbent_verdict(mut d2: Diagnosis, d: &Diagnosis, opts: &LoopOptions) -> Diagn
         }
     };
     d2.verdict = format!("{} ({why}: every trial started again from the uncalibrated values too; from the calibrated model alone: {})", d2.verdict, d.verdict);
-    // `top_second_starts_won` covers every search of a diagnosis, the one replaced too.
+    // `top_second_starts_won` and `fine_cell_won` cover every search of a diagnosis, the
+    // one replaced too.
     add_missing(&mut d2.top_second_starts_won, &d.top_second_starts_won);
+    add_missing(&mut d2.fine_cell_won, &d.fine_cell_won);
     d2
 }
 
@@ -782,6 +791,7 @@ fn look_twice(first: (Machine, Diagnosis), m: &Machine, reference: &Reference, o
     d2.stuck_plain_verdict = d.stuck_plain_verdict.clone();
     d2.short_plain = d.short_plain.clone();
     add_missing(&mut d2.top_second_starts_won, &d.top_second_starts_won);
+    add_missing(&mut d2.fine_cell_won, &d.fine_cell_won);
     d2.second_look = Some(SecondLook { realisations: k, leader, verdict_with_one: d.verdict });
     Ok((cal, d2))
 }
@@ -1047,7 +1057,11 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             };
             let refitted = match fit_trial(&fm, measured, &[], &stage2_refine(t1.effect), opts, progress) {
                 Ok((fm2, f2)) if f2.objective_after < t1.objective_after => {
-                    (EffectTrial { from_uncalibrated: t1.from_uncalibrated, ..make_trial(t1.effect, &fm2, &f2, &refined_and(&released)) }, fm2)
+                    // The re-fit is local (no force grid), and starts where `t1`'s fit ended:
+                    // a fine-cell win there is this trial's too.
+                    let mut fine_cell_won = t1.fine_cell_won.clone();
+                    fine_cell_won.extend(f2.fine_cell_won.iter().filter(|p| !t1.fine_cell_won.contains(p)));
+                    (EffectTrial { from_uncalibrated: t1.from_uncalibrated, fine_cell_won, ..make_trial(t1.effect, &fm2, &f2, &refined_and(&released)) }, fm2)
                 }
                 _ => (t1, fm),
             };
@@ -1056,6 +1070,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
         .collect();
     let top_second_starts_won: Vec<EffectKind> = stage2.iter().filter(|(_, won)| *won).map(|((t, _), _)| t.effect).collect();
     let stage2: Vec<(EffectTrial, Machine)> = stage2.into_iter().map(|(x, _)| x).collect();
+    let fine_cell_won: Vec<EffectKind> = stage2.iter().chain(rest.iter()).filter(|(t, _)| !t.fine_cell_won.is_empty()).map(|(t, _)| t.effect).collect();
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
     }
@@ -1114,7 +1129,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, strength_range: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before

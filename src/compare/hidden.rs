@@ -62,6 +62,11 @@ pub struct CaseResult {
     /// the search without the option gives.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub top_second_starts_won: Vec<EffectKind>,
+    /// With `LoopOptions::fine_force_scan`: the effects with a trial that records a fine-cell
+    /// win ([`super::diagnose::Diagnosis::fine_cell_won`]); empty, the case is the one the
+    /// search without the option gives.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fine_cell_won: Vec<EffectKind>,
     /// What the true machine itself scores against the measurement ([`oracle`]).
     #[serde(default)]
     pub oracle: Oracle,
@@ -404,6 +409,7 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
         unbent: d.unbent,
         short_plain_chosen: d.short_plain.as_ref().map(|s| s.chosen),
         top_second_starts_won: d.top_second_starts_won.clone(),
+        fine_cell_won: d.fine_cell_won.clone(),
         oracle,
         strength_range: d.strength_range.clone(),
         seconds: t0.elapsed().as_secs_f64(),
