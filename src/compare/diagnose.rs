@@ -766,8 +766,8 @@ fn unbent_verdict(mut d2: Diagnosis, d: &Diagnosis, opts: &LoopOptions) -> Diagn
     d2
 }
 
-/// Appends to `to` each effect of `from` it lacks, in order.
-fn add_missing(to: &mut Vec<EffectKind>, from: &[EffectKind]) {
+/// Appends to `to` each item of `from` it lacks, in order.
+fn add_missing<T: PartialEq + Copy>(to: &mut Vec<T>, from: &[T]) {
     for k in from {
         if !to.contains(k) {
             to.push(*k);
@@ -1060,7 +1060,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                     // The re-fit is local (no force grid), and starts where `t1`'s fit ended:
                     // a fine-cell win there is this trial's too.
                     let mut fine_cell_won = t1.fine_cell_won.clone();
-                    fine_cell_won.extend(f2.fine_cell_won.iter().filter(|p| !t1.fine_cell_won.contains(p)));
+                    add_missing(&mut fine_cell_won, &f2.fine_cell_won);
                     (EffectTrial { from_uncalibrated: t1.from_uncalibrated, fine_cell_won, ..make_trial(t1.effect, &fm2, &f2, &refined_and(&released)) }, fm2)
                 }
                 _ => (t1, fm),
