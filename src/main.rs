@@ -368,8 +368,8 @@ struct SearchArgs {
     /// commands run unchanged.
     #[arg(long, hide = true, conflicts_with = "scf_slice_normalisers")]
     scf_one_normaliser: bool,
-    /// The significance test: `floor_margin` (objective at least 1.3 × its seed floor with one
-    /// realisation, 1.54 × with several, with the default margin; the default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
+    /// The significance test: `floor_margin` (objective at least 1.15 × its seed floor with one
+    /// realisation, 1.28 × with several, with the default margin; the default) or `scatter` (objective above its floor by more than 2√2 σ, and the effect itself
     /// must account for the share: switching it off again in the trial's fit must cost it;
     /// experimental, not adopted: it made a false claim on a fresh pair the default does not).
     #[arg(long, value_name = "RULE", default_value = "floor_margin", value_parser = ["floor_margin", "scatter"])]
@@ -387,7 +387,7 @@ struct SearchArgs {
     /// Model realisations (seeds) per evaluation, their spectra averaged before comparing, so
     /// random effects (slip, a rough fault, noise) are fitted to their expected spectra, not to
     /// one draw; with K ≥ 2 their mean's own scatter is taken out of the error, the floor
-    /// ratio rises (to 1.54 with the default margin) to ask for the same systematic misfit, and the calibrated model and
+    /// ratio rises (to 1.28 with the default margin) to ask for the same systematic misfit, and the calibrated model and
     /// every trial are judged on K held-out realisations no fit used (each evaluation costs K
     /// simulations, run in parallel; not the default: with 2 a random effect's objective
     /// scatters from draw to draw by half its own gain, so a 2 % slip is not found, docs/loop-notebook.md

@@ -503,7 +503,7 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.run_steps(3);
     assert!(!h.state().settings.loop_options(Default::default()).uncalibrated_start_top);
     // The floor margin of the decision: the library's default until changed.
-    assert_eq!(o.floor_margin, 0.3);
+    assert_eq!(o.floor_margin, 0.15);
     set(&mut h, "floor margin", 0.2);
     assert_eq!(h.state().settings.loop_options(Default::default()).floor_margin, 0.2);
     // The calibration polish: four sweeps by default (since session 44) until set.

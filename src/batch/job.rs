@@ -658,7 +658,7 @@ mod tests {
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\ndecision_rule = \"scatter\"").unwrap();
         assert_eq!(spec.options(&chain).unwrap().decision_rule, crate::compare::DecisionRule::Scatter);
         assert!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"\ndecision_rule = \"vibes\"").unwrap_err().to_string().contains("vibes"));
-        assert_eq!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"").unwrap().options(&chain).unwrap().floor_margin, 0.3);
+        assert_eq!(toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"").unwrap().options(&chain).unwrap().floor_margin, 0.15);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfloor_margin = 0.2").unwrap();
         assert_eq!(spec.options(&chain).unwrap().floor_margin, 0.2);
         let spec: LoopSpec = toml::from_str("preset = \"cwru_6205_inner\"\nfloor_margin = -0.1").unwrap();

@@ -1962,12 +1962,13 @@ mod tests {
 
     #[test]
     fn the_floor_ratio_asks_for_the_same_distance_over_the_scatter_whatever_k() {
-        let one = LoopOptions::default();
-        assert!((floor_ratio_needed(&one) - 1.3).abs() < 1e-12, "the default margin 0.3 (since session 44)");
+        assert!((floor_ratio_needed(&LoopOptions::default()) - 1.15).abs() < 1e-12, "the default margin 0.15 (since session 54)");
+        // The rest with the margin of sessions 44–53, 0.3.
+        let one = LoopOptions { floor_margin: 0.3, ..Default::default() };
         assert_eq!(floor_ratio_needed(&LoopOptions { floor_margin: 0.5, ..Default::default() }), 1.5);
         assert!((floor_ratio_needed(&LoopOptions { floor_margin: 0.2, ..Default::default() }) - 1.2).abs() < 1e-12);
         assert!((floor_ratio_needed(&LoopOptions { floor_margin: 0.2, realisations: 4, ..Default::default() }) - 1.88f64.sqrt()).abs() < 1e-12);
-        let two = LoopOptions { realisations: 2, ..Default::default() };
+        let two = LoopOptions { realisations: 2, ..one.clone() };
         assert!((floor_ratio_needed(&two) - 2.38f64.sqrt()).abs() < 1e-12);
         assert!((floor_ratio_needed(&LoopOptions { floor_margin: 0.5, ..two.clone() }) - 3.5f64.sqrt()).abs() < 1e-12);
         // b²/V at the threshold: j² / floor² − 1 with floor² = 2V (K = 1), V (K ≥ 2).
@@ -2010,9 +2011,9 @@ mod tests {
             assert_eq!(best, None);
             assert!(v.contains("within its own scatter") && !v.contains("best trial"), "{v}");
         }
-        // With the default margin (0.3) 1.46 × the floor is something to explain, and the
-        // trial's 19 % of it is named and is not a finding.
-        let (_, best, v) = decide(vec![trial(EffectKind::PathModulation, 3.30, floor, 3.10, 10.0)], 3.30, floor, sigma, &LoopOptions::default());
+        // With a margin of 0.3 (the default of sessions 44–53; 0.15 since) 1.46 × the floor is
+        // something to explain, and the trial's 19 % of it is named and is not a finding.
+        let (_, best, v) = decide(vec![trial(EffectKind::PathModulation, 3.30, floor, 3.10, 10.0)], 3.30, floor, sigma, &LoopOptions { floor_margin: 0.3, ..LoopOptions::default() });
         assert_eq!(best, None);
         assert!(!v.contains("within its own scatter") && v.contains("explains 19 %"), "{v}");
         // Far above the floor, but the best trial explains only 15 % of it.
@@ -2030,8 +2031,10 @@ mod tests {
 
     #[test]
     fn the_near_floor_rule_claims_only_a_decisive_untied_effect_between_1_2_and_1_5_times_the_floor() {
-        let on = LoopOptions { near_floor_rule: true, ..Default::default() };
-        let off = LoopOptions::default();
+        // The rule lives between 1.2 × and the margin's ratio: with the margin of sessions 44–53,
+        // 0.3 (since session 54 the default margin 0.15 leaves it no band).
+        let off = LoopOptions { floor_margin: 0.3, ..Default::default() };
+        let on = LoopOptions { near_floor_rule: true, ..off.clone() };
         let with_ablation = |mut t: EffectTrial, e: f64| {
             t.effect_explained = Some(e);
             t
@@ -2044,9 +2047,12 @@ mod tests {
         let (_, best, v) = decide(vec![pm(), other()], j0, floor, sigma, &on);
         assert_eq!(best, Some(EffectKind::PathModulation), "{v}");
         assert!(v.contains("near-floor rule") && v.contains("1.27 ×"), "{v}");
-        // The default says nothing significant, naming it.
+        // The margin 0.3 says nothing significant, naming it.
         let (_, best, v) = decide(vec![pm(), other()], j0, floor, sigma, &off);
         assert_eq!(best, None, "{v}");
+        // Today's default margin (0.15) claims it without the near-floor rule.
+        let (_, best, v) = decide(vec![pm(), other()], j0, floor, sigma, &LoopOptions::default());
+        assert_eq!(best, Some(EffectKind::PathModulation), "{v}");
         // Each condition alone refuses it.
         let below = |t: EffectTrial, j0: f64| decide(vec![t, other()], j0, floor, sigma, &on).1;
         // 1.19 × the floor (the bearing-base gear_mesh case's ratio).
@@ -2090,20 +2096,26 @@ mod tests {
         };
         // The bearing-base gear_mesh case (seed 2100): 1.19 × the floor, σ 0.14. The unbalance
         // trial explains 98 %, but switching the unbalance off costs 7 %: no finding, and the
-        // verdict says why. (The floor-margin rule stops earlier: 1.19 < 1.5.)
+        // verdict says why. (The floor-margin rule with a margin of 0.3 stops earlier: 1.19 <
+        // 1.3; with today's default 0.15 it would claim the unbalance: this round of an older
+        // search is a stand-in 0.15 can name. Today's search puts the same case, seed 2103, at
+        // 1.00 ×: docs/loop-notebook.md "Session 54".)
+        let margin_03 = LoopOptions { floor_margin: 0.3, ..LoopOptions::default() };
         let (j0, floor, sigma) = (5.07, 4.26, 0.14);
         let unbalance = with_ablation(trial(EffectKind::Unbalance, j0, floor, 4.28, 10.0), 0.07);
         let (_, best, v) = decide(vec![unbalance.clone()], j0, floor, sigma, &o);
         assert_eq!(best, None);
         assert!(v.contains("costs only 7 %") && v.contains("re-fit did the work"), "{v}");
-        let (_, best, v) = decide(vec![unbalance.clone()], j0, floor, sigma, &LoopOptions::default());
+        let (_, best, v) = decide(vec![unbalance.clone()], j0, floor, sigma, &margin_03);
         assert_eq!(best, None);
         assert!(v.contains("within its own scatter"), "{v}");
+        let (_, best, _) = decide(vec![unbalance.clone()], j0, floor, sigma, &LoopOptions::default());
+        assert_eq!(best, Some(EffectKind::Unbalance));
         // The same numbers with the effect doing the work: a finding under the scatter rule
-        // (excess 0.81 > 2√2 σ = 0.40), none under the floor margin.
+        // (excess 0.81 > 2√2 σ = 0.40), none under the floor margin 0.3.
         let (_, best, _) = decide(vec![with_ablation(unbalance.clone(), 0.9)], j0, floor, sigma, &o);
         assert_eq!(best, Some(EffectKind::Unbalance));
-        let (_, best, _) = decide(vec![with_ablation(unbalance.clone(), 0.9)], j0, floor, sigma, &LoopOptions::default());
+        let (_, best, _) = decide(vec![with_ablation(unbalance.clone(), 0.9)], j0, floor, sigma, &margin_03);
         assert_eq!(best, None);
         // No ablation (it could not be evaluated): no finding under the scatter rule.
         let (_, best, v) = decide(vec![EffectTrial { effect_explained: None, ..unbalance }], j0, floor, sigma, &o);
@@ -2255,7 +2267,7 @@ mod tests {
     #[test]
     fn a_significant_best_that_explains_under_half_is_short() {
         use EffectKind::*;
-        let opts = LoopOptions { unbend_when_short: true, ..LoopOptions::default() };
+        let opts = LoopOptions { unbend_when_short: true, floor_margin: 0.3, ..LoopOptions::default() };
         let diagnosis = |j0: f64, floor: f64, j_best: f64| {
             let mut d = Diagnosis { floor_objective: floor, best: Some(Unbalance), trials: vec![trial(Unbalance, j0, floor, j_best, 0.06), trial(Misalignment, j0, floor, 12.84, 0.06)], verdict: "unbalance: plain".into(), ..Default::default() };
             d.calibration.objective_after = j0;
