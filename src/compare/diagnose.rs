@@ -227,6 +227,11 @@ pub struct Diagnosis {
     /// re-fitted at each point: [`super::strength_range`]). None when off or nothing was chosen.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strength_range: Option<super::strength_range::StrengthRange>,
+    /// The best trial when the verdict names it as a lead although nothing is significant
+    /// ([`named_lead`]: it passes every test but the floor's). None when something was chosen
+    /// or no trial is a lead.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub near_floor_lead: Option<EffectKind>,
 }
 
 /// A diagnosis redone with several realisations because a random effect led it with one
@@ -483,17 +488,12 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
         return (trials, None, "nothing significant is missing (no effect of the catalogue applies to this machine)".into());
     };
     let improvement = j0 - first.objective_after;
-    let above = match opts.decision_rule {
-        DecisionRule::FloorMargin => above_floor(j0, floor, opts),
-        DecisionRule::Scatter => j0 - floor > tie,
-    };
-    let near_floor = !above && opts.near_floor_rule && opts.decision_rule == DecisionRule::FloorMargin && near_floor_finding(&trials, j0, floor, scatter, opts);
-    let something_to_explain = above || near_floor;
-    let reason = if !something_to_explain {
+    let (above, near_floor) = something_to_explain(&trials, j0, floor, scatter, opts);
+    let reason = if !(above || near_floor) {
         // The best trial is still named when it would pass every other test. On the stored
         // runs such a trial was the missed hidden effect about half the time (README "A
         // second start for every trial"), hence the wording.
-        let lead = if names_a_near_floor_lead(first, j0, floor, scatter, opts) { format!("; best trial: {} explains {:.0} % of the error above the floor, beyond the seed scatter, but this near the floor a misfit of the base model can do as much: not a finding", first.effect.name(), first.explained * 100.0) } else { String::new() };
+        let lead = if named_lead(&trials, j0, floor, scatter, opts).is_some() { format!("; best trial: {} explains {:.0} % of the error above the floor, beyond the seed scatter, but this near the floor a misfit of the base model can do as much: not a finding", first.effect.name(), first.explained * 100.0) } else { String::new() };
         Some(format!("the calibrated model is within its own scatter: objective {j0:.2} against a floor of {floor:.2} (the model against realisations of itself){lead}"))
     } else if first.outside_band {
         Some(format!("best trial: {} puts its feature at the edge of the band searched{}, outside what the data show", first.effect.name(), first.parameter.map_or(String::new(), |(p, v)| format!(" ({} = {v:.4e})", p.name()))))
@@ -632,6 +632,27 @@ fn names_a_near_floor_lead(first: &EffectTrial, j0: f64, floor: f64, scatter: f6
     j0 > floor && !first.not_a_finding() && first.explained >= opts.significance && j0 - first.objective_after >= tie_width(scatter)
 }
 
+/// Whether [`decide`] sees error a missing effect could explain in the calibrated objective
+/// `j0`, given the decided `trials` (best first): (above the floor by the decision rule's
+/// test, a finding of the near-floor rule).
+fn something_to_explain(trials: &[EffectTrial], j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> (bool, bool) {
+    let above = match opts.decision_rule {
+        DecisionRule::FloorMargin => above_floor(j0, floor, opts),
+        DecisionRule::Scatter => j0 - floor > tie_width(scatter),
+    };
+    let near_floor = !above && opts.near_floor_rule && opts.decision_rule == DecisionRule::FloorMargin && near_floor_finding(trials, j0, floor, scatter, opts);
+    (above, near_floor)
+}
+
+/// The effect [`decide`] names as a lead in a "nothing significant" verdict, given the
+/// decided `trials` (best first): it finds nothing to explain, and the first trial would pass
+/// every other test ([`names_a_near_floor_lead`]).
+pub fn named_lead(trials: &[EffectTrial], j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> Option<EffectKind> {
+    let first = trials.first()?;
+    let (above, near_floor) = something_to_explain(trials, j0, floor, scatter, opts);
+    (!above && !near_floor && names_a_near_floor_lead(first, j0, floor, scatter, opts)).then_some(first.effect)
+}
+
 /// The verdict of a search that named a near-floor lead (`lead`), with a note when the
 /// comparison spans under half the record: a longer one (`LoopOptions::fit_duration_s`)
 /// lowers the seed scatter. On the bearing base a gear mesh at 1.12 × its floor with 1.5 s
@@ -643,6 +664,14 @@ fn with_longer_comparison_note(verdict: String, lead: bool, fit_duration_s: f64,
     } else {
         verdict
     }
+}
+
+/// `d`, the answer of a whole search (its unbent redo and second look included), with
+/// [`with_longer_comparison_note`] once, at the end of its verdict, when the search that
+/// answered named a lead ([`Diagnosis::near_floor_lead`]).
+fn noted_once(mut d: Diagnosis, fit_duration_s: f64, record_s: f64) -> Diagnosis {
+    d.verdict = with_longer_comparison_note(std::mem::take(&mut d.verdict), d.near_floor_lead.is_some(), fit_duration_s, record_s);
+    d
 }
 
 /// Whether an objective is far enough above its seed floor for anything to be missing:
@@ -705,6 +734,7 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// chose it.
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let (cal, d) = diagnose_search(m, reference, opts, progress)?;
+    let d = noted_once(d, opts.fit_duration_s, reference.measured().duration_s());
     with_strength_range(cal, d, reference, opts, progress)
 }
 
@@ -1147,10 +1177,9 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     }
     let held_out_objective = held_out.as_ref().map(|_| j0);
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
-    let lead = best.is_none() && opts.decision_rule == DecisionRule::FloorMargin && !opts.near_floor_rule && !above_floor(j0, floor, opts) && trials.first().is_some_and(|t| names_a_near_floor_lead(t, j0, floor, scatter, opts));
-    let verdict = with_longer_comparison_note(verdict, lead, opts.fit_duration_s, measured.measured().duration_s());
+    let near_floor_lead = named_lead(&trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
@@ -2014,15 +2043,45 @@ mod tests {
         let (j0, floor, sigma) = (2.85, 2.545, 0.06);
         let (trials, best, v) = decide(vec![trial(EffectKind::GearMesh, j0, floor, 2.57, 10.0)], j0, floor, sigma, &o);
         assert_eq!(best, None, "{v}");
-        assert!(names_a_near_floor_lead(&trials[0], j0, floor, sigma, &o) && v.contains("best trial: gear_mesh"), "{v}");
+        assert_eq!(named_lead(&trials, j0, floor, sigma, &o), Some(EffectKind::GearMesh));
+        assert!(v.contains("best trial: gear_mesh explains"), "{v}");
         let noted = with_longer_comparison_note(v.clone(), true, o.fit_duration_s, 10.0);
         assert!(noted.starts_with(&v) && noted.ends_with("the comparison spans 1.5 s of the 10.0 s record: a longer one (the fit duration) lowers the seed scatter and may tell this lead from a misfit"), "{noted}");
         // No note when the comparison already spans half the record or more, or without a lead.
         assert_eq!(with_longer_comparison_note(v.clone(), true, 1.5, 2.9), v);
         assert_eq!(with_longer_comparison_note(v.clone(), false, 1.5, 10.0), v);
         // Not a lead: an improvement within the tie width (2√2 σ = 0.17 > 0.10).
-        let (trials, _, _) = decide(vec![trial(EffectKind::GearMesh, j0, floor, 2.75, 10.0)], j0, floor, sigma, &o);
-        assert!(!names_a_near_floor_lead(&trials[0], j0, floor, sigma, &o));
+        let (trials, _, v) = decide(vec![trial(EffectKind::GearMesh, j0, floor, 2.75, 10.0)], j0, floor, sigma, &o);
+        assert_eq!(named_lead(&trials, j0, floor, sigma, &o), None);
+        assert!(!v.contains("best trial"), "{v}");
+        // Nor when it is chosen (1.3 × the floor and over), or found by the near-floor rule.
+        let (trials, best, _) = decide(vec![trial(EffectKind::GearMesh, 3.4, floor, 2.57, 10.0)], 3.4, floor, sigma, &o);
+        assert_eq!((best, named_lead(&trials, 3.4, floor, sigma, &o)), (Some(EffectKind::GearMesh), None));
+    }
+
+    /// The note on a longer comparison goes once on the answer of a whole search, however many
+    /// searches its verdict quotes (an unbent redo and a second look each embed the verdict they
+    /// replaced), and only when the search that answered named a lead.
+    #[test]
+    fn the_longer_comparison_note_goes_once_on_the_answer_of_a_whole_search() {
+        let o = LoopOptions::default();
+        let (j0, floor, sigma) = (2.85, 2.545, 0.06);
+        let searched = |j_best: f64| {
+            let (trials, best, verdict) = decide(vec![trial(EffectKind::GearMesh, j0, floor, j_best, 10.0)], j0, floor, sigma, &o);
+            let near_floor_lead = named_lead(&trials, j0, floor, sigma, &o);
+            Diagnosis { trials, best, verdict, near_floor_lead, floor_objective: floor, objective_scatter: sigma, ..Default::default() }
+        };
+        let note = "a longer one (the fit duration) lowers the seed scatter";
+        // A stuck plain search and its unbent redo, both naming the lead: one note, at the end.
+        let (plain, redo) = (searched(2.57), searched(2.58));
+        assert!(plain.near_floor_lead.is_some() && redo.near_floor_lead.is_some());
+        let combined = noted_once(unbent_verdict(redo, &plain, &o), o.fit_duration_s, 6.0);
+        assert_eq!(combined.verdict.matches(note).count(), 1, "{}", combined.verdict);
+        assert!(combined.verdict.ends_with("may tell this lead from a misfit") && combined.verdict.contains("from the calibrated model alone: nothing significant"), "{}", combined.verdict);
+        // A redo that names no lead: no note, though the plain search it quotes named one.
+        let combined = noted_once(unbent_verdict(searched(2.75), &plain, &o), o.fit_duration_s, 6.0);
+        assert_eq!(combined.near_floor_lead, None);
+        assert!(!combined.verdict.contains(note), "{}", combined.verdict);
     }
 
     #[test]
