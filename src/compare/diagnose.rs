@@ -633,8 +633,8 @@ fn names_a_near_floor_lead(first: &EffectTrial, j0: f64, floor: f64, scatter: f6
 }
 
 /// Whether [`decide`] sees error a missing effect could explain in the calibrated objective
-/// `j0`, given the decided `trials` (best first): (above the floor by the decision rule's
-/// test, a finding of the near-floor rule).
+/// `j0`, given the decided `trials` (best first), as (the objective is above the floor by the
+/// decision rule's test, the near-floor rule makes the first trial a finding).
 fn something_to_explain(trials: &[EffectTrial], j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> (bool, bool) {
     let above = match opts.decision_rule {
         DecisionRule::FloorMargin => above_floor(j0, floor, opts),
@@ -734,6 +734,12 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// chose it.
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let (cal, d) = diagnose_search(m, reference, opts, progress)?;
+    answer(cal, d, reference, opts, progress)
+}
+
+/// A whole search's diagnosis `d` of `cal` made the answer: [`noted_once`], then
+/// [`with_strength_range`].
+fn answer(cal: Machine, d: Diagnosis, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let d = noted_once(d, opts.fit_duration_s, reference.measured().duration_s());
     with_strength_range(cal, d, reference, opts, progress)
 }
@@ -1780,9 +1786,9 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
     let mut opts = opts.clone();
     for r in 1..=rounds {
         let (cal, d) = match pending.take() {
-            // A kept replacement's search got no strength range (most are refused): it gets it
-            // now that it is the round's diagnosis.
-            Some((cal, d)) => with_strength_range(cal, d, &reference, &opts, progress)?,
+            // A kept replacement's search got no strength range and no note (most are refused):
+            // it gets them now that it is the round's diagnosis.
+            Some((cal, d)) => answer(cal, d, &reference, &opts, progress)?,
             None => diagnose_with(&current, &reference, &opts, progress)?,
         };
         let env = d.envelope_nrmse().unwrap_or(f64::INFINITY);
@@ -2054,7 +2060,7 @@ mod tests {
         let (trials, _, v) = decide(vec![trial(EffectKind::GearMesh, j0, floor, 2.75, 10.0)], j0, floor, sigma, &o);
         assert_eq!(named_lead(&trials, j0, floor, sigma, &o), None);
         assert!(!v.contains("best trial"), "{v}");
-        // Nor when it is chosen (1.3 × the floor and over), or found by the near-floor rule.
+        // Nor when it is chosen (1.34 × the floor, over the default 1.15).
         let (trials, best, _) = decide(vec![trial(EffectKind::GearMesh, 3.4, floor, 2.57, 10.0)], 3.4, floor, sigma, &o);
         assert_eq!((best, named_lead(&trials, 3.4, floor, sigma, &o)), (Some(EffectKind::GearMesh), None));
     }
