@@ -493,7 +493,7 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
         // The best trial is still named when it would pass every other test. On the stored
         // runs such a trial was the missed hidden effect about half the time (README "A
         // second start for every trial"), hence the wording.
-        let lead = if named_lead(&trials, j0, floor, scatter, opts).is_some() { format!("; best trial: {} explains {:.0} % of the error above the floor, beyond the seed scatter, but this near the floor a misfit of the base model can do as much: not a finding", first.effect.name(), first.explained * 100.0) } else { String::new() };
+        let lead = if names_a_near_floor_lead(first, j0, floor, scatter, opts) { format!("; best trial: {} explains {:.0} % of the error above the floor, beyond the seed scatter, but this near the floor a misfit of the base model can do as much: not a finding", first.effect.name(), first.explained * 100.0) } else { String::new() };
         Some(format!("the calibrated model is within its own scatter: objective {j0:.2} against a floor of {floor:.2} (the model against realisations of itself){lead}"))
     } else if first.outside_band {
         Some(format!("best trial: {} puts its feature at the edge of the band searched{}, outside what the data show", first.effect.name(), first.parameter.map_or(String::new(), |(p, v)| format!(" ({} = {v:.4e})", p.name()))))
