@@ -173,7 +173,7 @@ fn a_casing_trial_scans_recalibrates_and_expects_exactly_the_evaluations_it_make
     // total counts both exactly.
     use twinscope::compare::diagnose::recalibrates;
     let (m, measured, opts) = quick_case(14, vec![EffectKind::CasingModes, EffectKind::LoadZone]);
-    assert!(recalibrates(EffectKind::CasingModes) && !recalibrates(EffectKind::LoadZone) && !recalibrates(EffectKind::SensorResponse));
+    assert!(recalibrates(EffectKind::CasingModes, &opts) && !recalibrates(EffectKind::LoadZone, &opts) && !recalibrates(EffectKind::SensorResponse, &opts));
     let (d, calls, expected) = diagnose_counting(&m, &measured, &opts);
     assert!(!d.unbent, "the calibration pinned {:?}: every trial would start twice", d.calibration.at_bound);
     assert_eq!(d.trials.len(), 2);
@@ -181,6 +181,33 @@ fn a_casing_trial_scans_recalibrates_and_expects_exactly_the_evaluations_it_make
     // The mode's fit re-fitted the calibration's parameters too (reported with it).
     let t = d.trials.iter().find(|t| t.effect == EffectKind::CasingModes).unwrap();
     assert!(t.extra_parameters.iter().any(|(p, _)| *p == Param::ResonanceHz), "{:?}", t.extra_parameters);
+}
+
+/// With `recalibrate_roll_off` the sensor roll-off's trial re-does the calibration as the
+/// casing mode's does (from the uncalibrated values, the bandwidth scanned), and the progress
+/// total counts it exactly; without, it starts from the calibrated model and re-fits the
+/// calibration only in stage 2, locally.
+#[test]
+fn a_recalibrating_roll_off_trial_expects_exactly_the_evaluations_it_makes() {
+    use twinscope::compare::diagnose::recalibrates;
+    let (m, measured, opts) = quick_case(15, vec![EffectKind::SensorResponse, EffectKind::LoadZone]);
+    let on = LoopOptions { recalibrate_roll_off: true, uncalibrated_start_top: false, ..opts.clone() };
+    let off = LoopOptions { uncalibrated_start_top: false, ..opts };
+    assert!(recalibrates(EffectKind::SensorResponse, &on) && !recalibrates(EffectKind::LoadZone, &on));
+    let (d_on, calls_on, expected_on) = diagnose_counting(&m, &measured, &on);
+    let (d_off, calls_off, expected_off) = diagnose_counting(&m, &measured, &off);
+    assert!(!d_on.unbent && !d_off.unbent, "the calibration pinned {:?}", d_on.calibration.at_bound);
+    assert_eq!((calls_on, calls_off), (expected_on, expected_off));
+    let roll_off = |d: &twinscope::compare::Diagnosis| d.trials.iter().find(|t| t.effect == EffectKind::SensorResponse).unwrap().clone();
+    let (t_on, t_off) = (roll_off(&d_on), roll_off(&d_off));
+    assert!(t_on.from_uncalibrated && !t_off.from_uncalibrated);
+    // Re-doing the calibration costs more than fitting the bandwidth and the noise level.
+    let plain = twinscope::compare::diagnose::plain_trial_evaluations(&m, EffectKind::SensorResponse, &off);
+    let recal = twinscope::compare::diagnose::plain_trial_evaluations(&m, EffectKind::SensorResponse, &on);
+    assert!(recal > plain, "{recal} against {plain}");
+    // The load zone's trial is the same with and without.
+    let lz = |d: &twinscope::compare::Diagnosis| d.trials.iter().find(|t| t.effect == EffectKind::LoadZone).unwrap().objective_after;
+    assert_eq!(lz(&d_on), lz(&d_off));
 }
 
 /// With `refit_effect_in_stage2`, stage 2 re-fits each top trial's own parameters locally

@@ -464,6 +464,14 @@ pub struct LoopOptions {
     /// search per effect parameter of each re-fitted trial. Default: off (experimental,
     /// session 52).
     pub refit_effect_in_stage2: bool,
+    /// The sensor roll-off's trial re-does the calibration with it, as the casing mode's does
+    /// ([`crate::compare::diagnose::recalibrates`]): from the uncalibrated values, the
+    /// bandwidth scanned on a grid, then one sweep over it and every calibrated parameter. A
+    /// calibration without the roll-off can bend the resonance down and broaden it to stand
+    /// in for the low-pass, and the plain trial, which fits the bandwidth and then re-fits
+    /// the resonance only locally, cannot undo that (docs/loop-notebook.md "Session 57").
+    /// Default: off (experimental, session 57).
+    pub recalibrate_roll_off: bool,
     /// After the search, the chosen effect's strength gets the range the data cannot tell
     /// from its fitted value: a profile of 7 points around it, every other free parameter
     /// re-fitted locally at each, judged against the tie band of the seed scatter
@@ -613,7 +621,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

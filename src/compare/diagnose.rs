@@ -228,7 +228,7 @@ pub struct Diagnosis {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strength_range: Option<super::strength_range::StrengthRange>,
     /// The best trial when the verdict names it as a lead although nothing is significant
-    /// ([`named_lead`]: it passes every test but the floor's). None when something was chosen
+    /// (by `decide`'s own test: it passes every test but the floor's). None when something was chosen
     /// or no trial is a lead.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub near_floor_lead: Option<EffectKind>,
@@ -647,7 +647,7 @@ fn something_to_explain(trials: &[EffectTrial], j0: f64, floor: f64, scatter: f6
 /// The effect [`decide`] names as a lead in a "nothing significant" verdict, given the
 /// decided `trials` (best first): it finds nothing to explain, and the first trial would pass
 /// every other test ([`names_a_near_floor_lead`]).
-pub fn named_lead(trials: &[EffectTrial], j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> Option<EffectKind> {
+fn named_lead(trials: &[EffectTrial], j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> Option<EffectKind> {
     let first = trials.first()?;
     let (above, near_floor) = something_to_explain(trials, j0, floor, scatter, opts);
     (!above && !near_floor && names_a_near_floor_lead(first, j0, floor, scatter, opts)).then_some(first.effect)
@@ -883,7 +883,7 @@ fn uncalibrated_start_of(m: &Machine, k: EffectKind) -> (Machine, Vec<Param>) {
 pub fn plain_trial_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -> usize {
     let mut t = m.clone();
     t.effects.enable(k);
-    if recalibrates(k) {
+    if recalibrates(k, opts) {
         fit_evaluations(&t, &recalibration_parameters(k, &t, opts), &[], 1, opts)
     } else {
         fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &plain_trial_scan(k, opts), opts)
@@ -969,7 +969,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     if unbent || scanned_start {
         let extra: usize = candidates
             .iter()
-            .filter(|k| !recalibrates(**k))
+            .filter(|k| !recalibrates(**k, opts))
             .map(|&k| {
                 if unbent {
                     let (t, ps, scan) = unbent_start(k);
@@ -1046,11 +1046,11 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             let plain = || -> TrialOutcome {
                 match cached_plain.as_ref().and_then(|v| v.iter().find(|(e, _)| *e == k)) {
                     Some((_, o)) => o.clone(),
-                    None if recalibrates(k) => from_uncalibrated_with(opts),
+                    None if recalibrates(k, opts) => from_uncalibrated_with(opts),
                     None => from_calibrated(),
                 }
             };
-            let (outcome, plain) = if recalibrates(k) {
+            let (outcome, plain) = if recalibrates(k, opts) {
                 let o = plain();
                 (o.clone(), o)
             } else if unbent {
@@ -1093,7 +1093,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let released = calibration_parameters_for(&cal_m, opts);
     // With `uncalibrated_start_top`, the best trials that started from the calibrated model
     // only also start from the uncalibrated values, and the better fit goes on to the re-fit.
-    let top_second_start = |t: &EffectTrial| opts.uncalibrated_start_top && !unbent && !scanned_start && !recalibrates(t.effect) && !t.from_uncalibrated;
+    let top_second_start = |t: &EffectTrial| opts.uncalibrated_start_top && !unbent && !scanned_start && !recalibrates(t.effect, opts) && !t.from_uncalibrated;
     progress.expect(stage1.iter().filter(|(t, _)| top_second_start(t)).map(|(t, _)| scanned_start_evaluations(m, t.effect, opts)).sum());
     // With `refit_effect_in_stage2` the re-fit releases the effect's own parameters too, after
     // the calibrated ones (a second start carries the same effect, so the same count).
@@ -1265,9 +1265,10 @@ fn rejudge(t: &mut EffectTrial, before: &Comparison, after: &Comparison, floor: 
 /// therefore starts from the model's own values and fits the mode frequency (grid scan, then
 /// golden section), then every calibration parameter over its full range (one sweep). (The
 /// sensor roll-off, fitted the same way, found a hidden 811 Hz roll-off better but cost a
-/// seen pair its casing find: README "The true machine as a yardstick".)
-pub fn recalibrates(k: EffectKind) -> bool {
-    k == EffectKind::CasingModes
+/// seen pair its casing find: README "The true machine as a yardstick"; with
+/// [`LoopOptions::recalibrate_roll_off`] it is, experimental since session 57.)
+pub fn recalibrates(k: EffectKind, opts: &LoopOptions) -> bool {
+    k == EffectKind::CasingModes || (k == EffectKind::SensorResponse && opts.recalibrate_roll_off)
 }
 
 /// The parameters a re-calibrating trial fits, in order: the effect's, then the calibration's.
