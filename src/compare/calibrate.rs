@@ -472,6 +472,14 @@ pub struct LoopOptions {
     /// the resonance only locally, cannot undo that (docs/loop-notebook.md "Session 57").
     /// Default: off (experimental, session 57).
     pub recalibrate_roll_off: bool,
+    /// Under the floor-margin rule, the best trial is a finding only if switching its effect
+    /// off again in its own fit (its ablation, [`crate::compare::EffectTrial::effect_explained`])
+    /// costs at least [`LoopOptions::significance`] of the error above the floor: else the
+    /// trial's re-fit of the base, not the effect, lowered the objective, and naming the
+    /// effect would be a stand-in (a 2.4e-6 kg·m unbalance "explaining" 50 % with an ablation
+    /// of 0.1 %: docs/loop-notebook.md "Session 57"). The scatter rule always asks it. An
+    /// ablation that could not be evaluated passes. Default: on (session 57).
+    pub effect_must_work: bool,
     /// After the search, the chosen effect's strength gets the range the data cannot tell
     /// from its fitted value: a profile of 7 points around it, every other free parameter
     /// re-fitted locally at each, judged against the tie band of the seed scatter
@@ -621,7 +629,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -512,7 +512,7 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
         ))
     } else if improvement < tie {
         Some(format!("best trial: {} improves the objective by {improvement:.2}, within the seed scatter (±{tie:.2})", first.effect.name()))
-    } else if opts.decision_rule == DecisionRule::Scatter && !first.effect_explained.is_some_and(|e| e >= opts.significance) {
+    } else if effect_did_not_work(first, opts) {
         Some(format!(
             "best trial: {} explains {:.0} % of the error above the floor, but switching the effect off again in its fit costs only {}: the trial's re-fit did the work",
             first.effect.name(),
@@ -540,6 +540,18 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
             (trials, Some(k), v)
         }
         Some(r) => (trials, None, format!("nothing significant is missing ({r})")),
+    }
+}
+
+/// Whether switching the best trial's effect off again in its own fit costs less than
+/// [`LoopOptions::significance`] of the error above the floor, so that the trial's re-fit of
+/// the base, not the effect, lowered the objective: no finding. The scatter rule always asks
+/// it, and an unknown ablation fails there; the floor margin with
+/// [`LoopOptions::effect_must_work`] (the default), where an unknown one passes.
+fn effect_did_not_work(first: &EffectTrial, opts: &LoopOptions) -> bool {
+    match opts.decision_rule {
+        DecisionRule::Scatter => !first.effect_explained.is_some_and(|e| e >= opts.significance),
+        DecisionRule::FloorMargin => opts.effect_must_work && first.effect_explained.is_some_and(|e| e < opts.significance),
     }
 }
 
@@ -2181,10 +2193,15 @@ mod tests {
         // An improvement within the seed scatter (σ 0.3: 2√2 σ = 0.85 > 0.45).
         let (_, best, _) = decide(vec![pm(), other()], j0, floor, 0.3, &on);
         assert_eq!(best, None);
-        // Above the margin's ratio the rule changes nothing: the default decides.
-        let (_, best, v) = decide(vec![with_ablation(trial(EffectKind::Unbalance, 3.2, floor, 2.9, 10.0), 0.1)], 3.2, floor, sigma, &on);
+        // Above the margin's ratio the rule changes nothing: the default decides (which, since
+        // session 57, also asks the effect to do the work: an ablation of 10 % is refused).
+        let weak = || with_ablation(trial(EffectKind::Unbalance, 3.2, floor, 2.9, 10.0), 0.1);
+        let (_, best, v) = decide(vec![weak()], 3.2, floor, sigma, &LoopOptions { effect_must_work: false, ..on.clone() });
         assert_eq!(best, Some(EffectKind::Unbalance), "{v}");
         assert!(!v.contains("near-floor rule"), "{v}");
+        let (_, best, v) = decide(vec![weak()], 3.2, floor, sigma, &on);
+        assert_eq!(best, None, "{v}");
+        assert!(v.contains("re-fit did the work") && !v.contains("near-floor rule"), "{v}");
         // With several realisations its ratio is that of a 0.2 margin there (√1.88 = 1.37).
         let two = LoopOptions { realisations: 2, ..on.clone() };
         assert_eq!(decide(vec![pm(), other()], j0, floor, sigma, &two).1, None);
@@ -2215,7 +2232,16 @@ mod tests {
         let (_, best, v) = decide(vec![unbalance.clone()], j0, floor, sigma, &margin_03);
         assert_eq!(best, None);
         assert!(v.contains("within its own scatter"), "{v}");
-        let (_, best, _) = decide(vec![unbalance.clone()], j0, floor, sigma, &LoopOptions::default());
+        // Today's default (margin 0.15) is above its ratio here, but asks the effect to do the
+        // work too (session 57): no finding, for the same reason; without that it names the
+        // stand-in.
+        let (_, best, v) = decide(vec![unbalance.clone()], j0, floor, sigma, &LoopOptions::default());
+        assert_eq!(best, None);
+        assert!(v.contains("costs only 7 %") && v.contains("re-fit did the work"), "{v}");
+        let (_, best, _) = decide(vec![unbalance.clone()], j0, floor, sigma, &LoopOptions { effect_must_work: false, ..LoopOptions::default() });
+        assert_eq!(best, Some(EffectKind::Unbalance));
+        // An ablation that could not be evaluated does not stop the floor margin's finding.
+        let (_, best, _) = decide(vec![EffectTrial { effect_explained: None, ..unbalance.clone() }], j0, floor, sigma, &LoopOptions::default());
         assert_eq!(best, Some(EffectKind::Unbalance));
         // The same numbers with the effect doing the work: a finding under the scatter rule
         // (excess 0.81 > 2√2 σ = 0.40), none under the floor margin 0.3.
