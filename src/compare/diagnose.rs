@@ -639,9 +639,9 @@ fn tie_width(scatter: f64) -> f64 {
 
 /// Whether [`decide`], finding nothing to explain, names `first` as a lead: it would pass
 /// every other test (above the floor at all, a finding, its share, an improvement beyond the
-/// tie width).
+/// tie width, its effect doing the work: [`effect_did_not_work`]).
 fn names_a_near_floor_lead(first: &EffectTrial, j0: f64, floor: f64, scatter: f64, opts: &LoopOptions) -> bool {
-    j0 > floor && !first.not_a_finding() && first.explained >= opts.significance && j0 - first.objective_after >= tie_width(scatter)
+    j0 > floor && !first.not_a_finding() && first.explained >= opts.significance && j0 - first.objective_after >= tie_width(scatter) && !effect_did_not_work(first, opts)
 }
 
 /// Whether [`decide`] sees error a missing effect could explain in the calibrated objective
@@ -2076,6 +2076,15 @@ mod tests {
         // Nor when it is chosen (1.34 × the floor, over the default 1.15).
         let (trials, best, _) = decide(vec![trial(EffectKind::GearMesh, 3.4, floor, 2.57, 10.0)], 3.4, floor, sigma, &o);
         assert_eq!((best, named_lead(&trials, 3.4, floor, sigma, &o)), (Some(EffectKind::GearMesh), None));
+        // Nor when switching its effect off again costs only 5 % (the re-fit did the work,
+        // session 57), unless that test is off.
+        let idle = EffectTrial { effect_explained: Some(0.05), ..trial(EffectKind::GearMesh, j0, floor, 2.57, 10.0) };
+        let (trials, _, v) = decide(vec![idle.clone()], j0, floor, sigma, &o);
+        assert_eq!(named_lead(&trials, j0, floor, sigma, &o), None);
+        assert!(!v.contains("best trial"), "{v}");
+        let lax = LoopOptions { effect_must_work: false, ..o.clone() };
+        let (trials, _, _) = decide(vec![idle], j0, floor, sigma, &lax);
+        assert_eq!(named_lead(&trials, j0, floor, sigma, &lax), Some(EffectKind::GearMesh));
     }
 
     /// The note on a longer comparison goes once on the answer of a whole search, however many
