@@ -478,6 +478,15 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("fine force cell: a scanned force also gets a second, finer grid inside the coarse grid's best cell (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).fine_force_scan);
+    // Decision (d) and the roll-off's re-calibration: the library's defaults until clicked.
+    let lib = twinscope::compare::LoopOptions::default();
+    assert_eq!((o.effect_must_work, o.recalibrate_roll_off), (lib.effect_must_work, lib.recalibrate_roll_off));
+    h.get_by_label("the effect must do the work: a best trial is a finding only when switching its effect off again costs at least 20 % of the error above the floor").click_accesskit();
+    h.run_steps(3);
+    assert_eq!(h.state().settings.loop_options(Default::default()).effect_must_work, !lib.effect_must_work);
+    h.get_by_label("re-calibrate with a roll-off: the sensor roll-off's trial re-does the calibration from the uncalibrated values, as the casing mode's does (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert_eq!(h.state().settings.loop_options(Default::default()).recalibrate_roll_off, !lib.recalibrate_roll_off);
     // The scan of periodic forces: on by default (since session 40) until unticked.
     assert!(o.scan_force_amplitudes);
     h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid").click_accesskit();

@@ -1277,8 +1277,8 @@ fn rejudge(t: &mut EffectTrial, before: &Comparison, after: &Comparison, floor: 
 /// therefore starts from the model's own values and fits the mode frequency (grid scan, then
 /// golden section), then every calibration parameter over its full range (one sweep). (The
 /// sensor roll-off, fitted the same way, found a hidden 811 Hz roll-off better but cost a
-/// seen pair its casing find: README "The true machine as a yardstick"; with
-/// [`LoopOptions::recalibrate_roll_off`] it is, experimental since session 57.)
+/// seen pair its casing find: docs/loop-notebook.md "Moved from the README (session 47)";
+/// with [`LoopOptions::recalibrate_roll_off`] it is, experimental since session 57.)
 pub fn recalibrates(k: EffectKind, opts: &LoopOptions) -> bool {
     k == EffectKind::CasingModes || (k == EffectKind::SensorResponse && opts.recalibrate_roll_off)
 }

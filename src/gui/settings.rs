@@ -81,6 +81,13 @@ pub struct Settings {
     /// grid's best cell, kept when it ends lower (`LoopOptions::fine_force_scan`,
     /// experimental).
     pub loop_fine_force_scan: bool,
+    /// Model loop: under the floor margin, a best trial is a finding only when switching its
+    /// effect off again in its own fit costs at least the significance share
+    /// (`LoopOptions::effect_must_work`, decision (d), on by default since session 57).
+    pub loop_effect_must_work: bool,
+    /// Model loop: the sensor roll-off's trial re-does the calibration with it, as the casing
+    /// mode's does (`LoopOptions::recalibrate_roll_off`, experimental).
+    pub loop_recalibrate_roll_off: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
     /// (`LoopOptions::polish_sweeps`; 0 = off, 4 by default since session 44).
     pub loop_polish_sweeps: usize,
@@ -123,6 +130,8 @@ impl Default for Settings {
             loop_uncalibrated_start_top: LoopOptions::default().uncalibrated_start_top,
             loop_fine_forces: LoopOptions::default().fine_forces,
             loop_fine_force_scan: LoopOptions::default().fine_force_scan,
+            loop_effect_must_work: LoopOptions::default().effect_must_work,
+            loop_recalibrate_roll_off: LoopOptions::default().recalibrate_roll_off,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
             loop_polish_second_starts: LoopOptions::default().polish_second_starts,
             loop_scf_one_normaliser: LoopOptions::default().compare.scf_one_normaliser,
@@ -193,6 +202,8 @@ impl Settings {
             uncalibrated_start_top: self.loop_uncalibrated_start_top,
             fine_forces: self.loop_fine_forces,
             fine_force_scan: self.loop_fine_force_scan,
+            effect_must_work: self.loop_effect_must_work,
+            recalibrate_roll_off: self.loop_recalibrate_roll_off,
             polish_sweeps: self.loop_polish_sweeps,
             polish_second_starts: self.loop_polish_second_starts,
             ..Default::default()
@@ -262,6 +273,8 @@ mod tests {
             loop_uncalibrated_start_top: false,
             loop_fine_forces: false,
             loop_fine_force_scan: true,
+            loop_effect_must_work: !LoopOptions::default().effect_must_work,
+            loop_recalibrate_roll_off: !LoopOptions::default().recalibrate_roll_off,
             loop_polish_sweeps: 0,
             loop_polish_second_starts: true,
             loop_scf_one_normaliser: false,
@@ -289,5 +302,9 @@ mod tests {
         let compare = CompareOptions::default();
         assert_eq!(s.loop_options(compare.clone()), LoopOptions { candidates: vec![EffectKind::LoadZone], ..Settings::default().loop_options(compare) });
         assert_eq!(Settings::default().loop_options(LoopOptions::default().compare), LoopOptions::default());
+        // The decision switches reach the search (they are not in `LoopOptions::validate`'s way).
+        let changed = everything_changed().loop_options(CompareOptions::default());
+        assert_ne!(changed.effect_must_work, LoopOptions::default().effect_must_work);
+        assert_ne!(changed.recalibrate_roll_off, LoopOptions::default().recalibrate_roll_off);
     }
 }
