@@ -210,6 +210,30 @@ fn a_recalibrating_roll_off_trial_expects_exactly_the_evaluations_it_makes() {
     assert_eq!(lz(&d_on), lz(&d_off));
 }
 
+/// With `roll_off_two_starts` the sensor roll-off's trial has both starts, the plain one and
+/// the recalibrating one, and keeps the better: its trial is one of the two, the one it
+/// started from, and the progress total counts both starts exactly. The load zone's trial is
+/// untouched.
+#[test]
+fn a_roll_off_trial_with_two_starts_is_the_better_of_them_and_expects_its_evaluations() {
+    // Polished second starts, so that the recalibrating start is the one
+    // `recalibrate_roll_off` makes alone; no second start for the top trials, which a roll-off
+    // trial with two starts does not take.
+    let (m, measured, opts) = quick_case(15, vec![EffectKind::SensorResponse, EffectKind::LoadZone]);
+    let base = LoopOptions { uncalibrated_start_top: false, polish_second_starts: true, ..opts };
+    let (d_off, _, _) = diagnose_counting(&m, &measured, &base);
+    let (d_recal, _, _) = diagnose_counting(&m, &measured, &LoopOptions { recalibrate_roll_off: true, ..base.clone() });
+    let (d_two, calls, expected) = diagnose_counting(&m, &measured, &LoopOptions { roll_off_two_starts: true, ..base.clone() });
+    assert!(!d_two.unbent && !d_off.unbent, "the calibration pinned {:?}", d_two.calibration.at_bound);
+    assert_eq!(calls, expected);
+    let roll_off = |d: &twinscope::compare::Diagnosis| d.trials.iter().find(|t| t.effect == EffectKind::SensorResponse).unwrap().clone();
+    let (off, recal, two) = (roll_off(&d_off), roll_off(&d_recal), roll_off(&d_two));
+    let kept = if two.from_uncalibrated { &recal } else { &off };
+    assert_eq!((two.objective_after, two.parameter), (kept.objective_after, kept.parameter), "plain {} / recalibrating {}", off.objective_after, recal.objective_after);
+    let lz = |d: &twinscope::compare::Diagnosis| d.trials.iter().find(|t| t.effect == EffectKind::LoadZone).unwrap().objective_after;
+    assert_eq!(lz(&d_two), lz(&d_off));
+}
+
 /// With `refit_effect_in_stage2`, stage 2 re-fits each top trial's own parameters locally
 /// after the calibrated ones: one local line search (3 evaluations here) more per effect
 /// parameter, load and clearance for the load zone, the frequency for the casing mode, and the

@@ -472,6 +472,15 @@ pub struct LoopOptions {
     /// the resonance only locally, cannot undo that (docs/loop-notebook.md "Session 57").
     /// Default: off (experimental, session 57).
     pub recalibrate_roll_off: bool,
+    /// The sensor roll-off's trial has two starts, and the better fit is the trial: the plain
+    /// one (from the calibrated model) and the one [`LoopOptions::recalibrate_roll_off`] makes
+    /// alone (from the uncalibrated values, the bandwidth scanned, one sweep over it and every
+    /// calibrated parameter), as every trial has when the search is unbent. The recalibrating
+    /// start alone fits a roll-off the bent calibration hid (657 Hz at 661 against 1304) but
+    /// can end worse than the plain one (926 Hz: 5.17 against 4.99; docs/loop-notebook.md
+    /// "Session 58"). With `recalibrate_roll_off` on, this does nothing. Default: off
+    /// (experimental, session 58).
+    pub roll_off_two_starts: bool,
     /// Under the floor-margin rule, the best trial is a finding only if switching its effect
     /// off again in its own fit (its ablation, [`crate::compare::EffectTrial::effect_explained`])
     /// costs at least [`LoopOptions::significance`] of the error above the floor: else the
@@ -629,7 +638,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

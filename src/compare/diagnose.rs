@@ -978,21 +978,23 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     // An unbent second start is polished only with `polish_second_starts`: its plain trial
     // starts from the (polished) calibration, so the trial keeps a polished start either way.
     let second_start_opts = LoopOptions { polish_sweeps: if opts.polish_second_starts { opts.polish_sweeps } else { 0 }, ..opts.clone() };
-    if unbent || scanned_start {
-        let extra: usize = candidates
-            .iter()
-            .filter(|k| !recalibrates(**k, opts))
-            .map(|&k| {
-                if unbent {
-                    let (t, ps, scan) = unbent_start(k);
-                    fit_evaluations(&t, &ps, &scan, 1, &second_start_opts)
-                } else {
-                    scanned_start_evaluations(m, k, opts)
-                }
-            })
-            .sum();
-        progress.expect(extra);
-    }
+    // With `roll_off_two_starts`, the roll-off's trial has unbending's two starts in any search.
+    let two_starts = |k: EffectKind| opts.roll_off_two_starts && k == EffectKind::SensorResponse && !recalibrates(k, opts);
+    let extra: usize = candidates
+        .iter()
+        .filter(|k| !recalibrates(**k, opts))
+        .map(|&k| {
+            if unbent || two_starts(k) {
+                let (t, ps, scan) = unbent_start(k);
+                fit_evaluations(&t, &ps, &scan, 1, &second_start_opts)
+            } else if scanned_start {
+                scanned_start_evaluations(m, k, opts)
+            } else {
+                0
+            }
+        })
+        .sum();
+    progress.expect(extra);
     let (fams, shaft) = machine_families(&cal_m);
     let map = residual_map(c, &fams, shaft);
     let j0 = objective(c, &opts.weights);
@@ -1065,7 +1067,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
             let (outcome, plain) = if recalibrates(k, opts) {
                 let o = plain();
                 (o.clone(), o)
-            } else if unbent {
+            } else if unbent || two_starts(k) {
                 // Both starts; the better fit is the trial (a start from the uncalibrated values
                 // with one sweep can end worse than the bent calibration's).
                 let (a, b) = rayon::join(plain, || from_uncalibrated_with(&second_start_opts));
@@ -1105,7 +1107,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let released = calibration_parameters_for(&cal_m, opts);
     // With `uncalibrated_start_top`, the best trials that started from the calibrated model
     // only also start from the uncalibrated values, and the better fit goes on to the re-fit.
-    let top_second_start = |t: &EffectTrial| opts.uncalibrated_start_top && !unbent && !scanned_start && !recalibrates(t.effect, opts) && !t.from_uncalibrated;
+    let top_second_start = |t: &EffectTrial| opts.uncalibrated_start_top && !unbent && !scanned_start && !recalibrates(t.effect, opts) && !two_starts(t.effect) && !t.from_uncalibrated;
     progress.expect(stage1.iter().filter(|(t, _)| top_second_start(t)).map(|(t, _)| scanned_start_evaluations(m, t.effect, opts)).sum());
     // With `refit_effect_in_stage2` the re-fit releases the effect's own parameters too, after
     // the calibrated ones (a second start carries the same effect, so the same count).
