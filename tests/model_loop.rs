@@ -216,16 +216,21 @@ fn a_recalibrating_roll_off_trial_expects_exactly_the_evaluations_it_makes() {
 /// untouched.
 #[test]
 fn a_roll_off_trial_with_two_starts_is_the_better_of_them_and_expects_its_evaluations() {
-    // Polished second starts, so that the recalibrating start is the one
-    // `recalibrate_roll_off` makes alone; no second start for the top trials, which a roll-off
-    // trial with two starts does not take.
+    // No second start for the top trials, which a roll-off trial with two starts does not
+    // take; the recalibrating start is polished as `recalibrate_roll_off`'s (unlike an unbent
+    // trial's second start, `polish_second_starts` off).
     let (m, measured, opts) = quick_case(15, vec![EffectKind::SensorResponse, EffectKind::LoadZone]);
-    let base = LoopOptions { uncalibrated_start_top: false, polish_second_starts: true, ..opts };
-    let (d_off, _, _) = diagnose_counting(&m, &measured, &base);
-    let (d_recal, _, _) = diagnose_counting(&m, &measured, &LoopOptions { recalibrate_roll_off: true, ..base.clone() });
+    let base = LoopOptions { uncalibrated_start_top: false, ..opts };
+    assert!(!base.polish_second_starts && base.polish_sweeps > 0);
+    let (d_off, _, expected_off) = diagnose_counting(&m, &measured, &base);
+    let recal_opts = LoopOptions { recalibrate_roll_off: true, ..base.clone() };
+    let (d_recal, _, expected_recal) = diagnose_counting(&m, &measured, &recal_opts);
     let (d_two, calls, expected) = diagnose_counting(&m, &measured, &LoopOptions { roll_off_two_starts: true, ..base.clone() });
     assert!(!d_two.unbent && !d_off.unbent, "the calibration pinned {:?}", d_two.calibration.at_bound);
     assert_eq!(calls, expected);
+    // Both starts: the search with the (polished) recalibrating trial and the plain trial.
+    assert_eq!(expected, expected_recal + twinscope::compare::diagnose::plain_trial_evaluations(&m, EffectKind::SensorResponse, &base));
+    assert!(expected > expected_off);
     let roll_off = |d: &twinscope::compare::Diagnosis| d.trials.iter().find(|t| t.effect == EffectKind::SensorResponse).unwrap().clone();
     let (off, recal, two) = (roll_off(&d_off), roll_off(&d_recal), roll_off(&d_two));
     let kept = if two.from_uncalibrated { &recal } else { &off };

@@ -986,7 +986,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
         .map(|&k| {
             if unbent || two_starts(k) {
                 let (t, ps, scan) = unbent_start(k);
-                fit_evaluations(&t, &ps, &scan, 1, &second_start_opts)
+                fit_evaluations(&t, &ps, &scan, 1, if two_starts(k) { opts } else { &second_start_opts })
             } else if scanned_start {
                 scanned_start_evaluations(m, k, opts)
             } else {
@@ -1069,8 +1069,9 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 (o.clone(), o)
             } else if unbent || two_starts(k) {
                 // Both starts; the better fit is the trial (a start from the uncalibrated values
-                // with one sweep can end worse than the bent calibration's).
-                let (a, b) = rayon::join(plain, || from_uncalibrated_with(&second_start_opts));
+                // with one sweep can end worse than the bent calibration's). The roll-off's
+                // second start with two starts is the polished one `recalibrate_roll_off` makes.
+                let (a, b) = rayon::join(plain, || from_uncalibrated_with(if two_starts(k) { opts } else { &second_start_opts }));
                 (better_start((a.clone(), b)), a)
             } else if scanned_start {
                 let (a, b) = rayon::join(plain, || from_uncalibrated_scanned(k));
