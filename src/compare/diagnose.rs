@@ -980,13 +980,17 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let second_start_opts = LoopOptions { polish_sweeps: if opts.polish_second_starts { opts.polish_sweeps } else { 0 }, ..opts.clone() };
     // With `roll_off_two_starts`, the roll-off's trial has unbending's two starts in any search.
     let two_starts = |k: EffectKind| opts.roll_off_two_starts && k == EffectKind::SensorResponse && !recalibrates(k, opts);
+    // The options of a trial's start from the uncalibrated values with a calibration sweep:
+    // unbending's (polished only with `polish_second_starts`), or for the roll-off with two
+    // starts the polished one `recalibrate_roll_off` makes. The count and the fit both use it.
+    let recalibrating_start_opts = |k: EffectKind| if two_starts(k) { opts } else { &second_start_opts };
     let extra: usize = candidates
         .iter()
         .filter(|k| !recalibrates(**k, opts))
         .map(|&k| {
             if unbent || two_starts(k) {
                 let (t, ps, scan) = unbent_start(k);
-                fit_evaluations(&t, &ps, &scan, 1, if two_starts(k) { opts } else { &second_start_opts })
+                fit_evaluations(&t, &ps, &scan, 1, recalibrating_start_opts(k))
             } else if scanned_start {
                 scanned_start_evaluations(m, k, opts)
             } else {
@@ -1069,9 +1073,8 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 (o.clone(), o)
             } else if unbent || two_starts(k) {
                 // Both starts; the better fit is the trial (a start from the uncalibrated values
-                // with one sweep can end worse than the bent calibration's). The roll-off's
-                // second start with two starts is the polished one `recalibrate_roll_off` makes.
-                let (a, b) = rayon::join(plain, || from_uncalibrated_with(if two_starts(k) { opts } else { &second_start_opts }));
+                // with one sweep can end worse than the bent calibration's).
+                let (a, b) = rayon::join(plain, || from_uncalibrated_with(recalibrating_start_opts(k)));
                 (better_start((a.clone(), b)), a)
             } else if scanned_start {
                 let (a, b) = rayon::join(plain, || from_uncalibrated_scanned(k));
