@@ -1,0 +1,206 @@
+//! The issue's hidden-effect acceptance, one case per effect of the catalogue: the
+//! "measurement" is simulated with one effect the model is not told about (its parameter drawn,
+//! another seed, a perturbed baseline, measurement noise), and today's default search, over
+//! every applicable candidate, must rank the hidden effect first and choose it; applying it must
+//! at least halve the envelope NRMSE, or, for a random effect whose own realisation no model can
+//! reproduce, bring it to the true machine's level. Controls, with nothing hidden, must answer
+//! "nothing significant is missing".
+//!
+//! Each case is a stored case of a fresh `twinscope confusion` table (the seed is the one that
+//! table gave it), chosen before it was run here by the rule in docs/loop-notebook.md
+//! ("Session 59: one case per effect of the catalogue, as a test"). `confusion --preset P
+//! --effect E --controls 0 --seed S` prints the same case. These are draws above the detection
+//! limits the README states; the limits themselves are in README "Detection limits".
+
+use twinscope::compare::hidden::{self, CaseResult, CaseSetting};
+use twinscope::compare::LoopOptions;
+use twinscope::model::{self, EffectKind, Effects};
+
+/// `confusion`'s record length, s.
+const RECORD_S: f64 = 2.0;
+
+/// What applying the chosen effect must do to the envelope NRMSE.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Envelope {
+    /// At most half the calibrated model's.
+    Halved,
+    /// No higher than the worst of the true machine's re-seeded runs
+    /// ([`hidden::Oracle::truth`]): the best a model can do when the hidden effect is random.
+    TruthLevel,
+}
+
+/// One stored case: the base preset, the hidden effect, `confusion`'s seed for it, what the
+/// case fixes instead of drawing it, and what applying the effect must do to the envelope.
+struct Case {
+    preset: &'static str,
+    effect: EffectKind,
+    seed: u64,
+    setting: CaseSetting,
+    envelope: Envelope,
+}
+
+const BEARING: &str = "mfs_inner";
+const GEAR: &str = "mfs_healthy";
+const DRAWN: CaseSetting = CaseSetting { value: None, snr_db: None };
+
+const fn case(preset: &'static str, effect: EffectKind, seed: u64, envelope: Envelope) -> Case {
+    Case { preset, effect, seed, setting: DRAWN, envelope }
+}
+
+/// The cases, one per effect of the catalogue (notebook "Session 59": each a stored case of a
+/// fresh table, or for slip of its strength sweep, with its alternate named there).
+const CASES: [Case; 14] = [
+    case(BEARING, EffectKind::LoadZone, 9900, Envelope::Halved),
+    // Slip's drawn range (1–3 %) sits at its detection limit with one realisation; this is the
+    // case of its strength sweep (README "Detection limits: slip and sensor_response"), chosen
+    // by the second look with four realisations.
+    Case { preset: BEARING, effect: EffectKind::Slip, seed: 3100, setting: CaseSetting { value: Some(3.0), snr_db: Some(10.0) }, envelope: Envelope::TruthLevel },
+    case(BEARING, EffectKind::CasingModes, 9202, Envelope::Halved),
+    case(GEAR, EffectKind::GearMesh, 9923, Envelope::Halved),
+    case(GEAR, EffectKind::ToothFault, 9924, Envelope::Halved),
+    case(BEARING, EffectKind::SpeedFluctuation, 9905, Envelope::Halved),
+    case(BEARING, EffectKind::SensorResponse, 9906, Envelope::Halved),
+    case(BEARING, EffectKind::Unbalance, 9207, Envelope::Halved),
+    case(GEAR, EffectKind::Misalignment, 9928, Envelope::Halved),
+    case(GEAR, EffectKind::ExtendedFault, 9929, Envelope::Halved),
+    case(GEAR, EffectKind::PathModulation, 9930, Envelope::Halved),
+    case(BEARING, EffectKind::BeltDrive, 9911, Envelope::Halved),
+    case(BEARING, EffectKind::NonlinearContact, 9912, Envelope::Halved),
+    case(BEARING, EffectKind::Noise, 9913, Envelope::Halved),
+];
+
+fn run(preset: &str, hidden_effect: Option<EffectKind>, seed: u64, setting: CaseSetting) -> CaseResult {
+    let base = model::preset(preset).unwrap();
+    hidden::run_case_set(&base, hidden_effect, seed, RECORD_S, &setting, &LoopOptions::default()).unwrap()
+}
+
+/// The worst envelope NRMSE (%) of the true machine's re-seeded runs against the measurement.
+fn truth_envelope_worst(r: &CaseResult) -> f64 {
+    r.oracle.truth.iter().map(|t| t.1).fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Runs the case of `k` and asserts what the issue asks of it.
+fn assert_found(k: EffectKind) {
+    let c = CASES.iter().find(|c| c.effect == k).expect("a case for every effect");
+    let (preset, seed) = (c.preset, c.seed);
+    let r = run(preset, Some(k), seed, c.setting);
+    let (before, after, truth) = (r.envelope_nrmse_before, r.envelope_nrmse_after, truth_envelope_worst(&r));
+    eprintln!(
+        "{} on {preset}, seed {seed}: true {:?}, SNR {:.1} dB; ranking {:?}; chosen {:?}; objective / floor {:.2}; envelope NRMSE {before:.2} → {after:.2} % (true machine at worst {truth:.2} %); {:.0} s\n{}",
+        k.name(),
+        r.true_parameter,
+        r.snr_db,
+        r.ranking.iter().map(|e| e.name()).collect::<Vec<_>>(),
+        r.chosen.map(|e| e.name()),
+        r.calibrated_objective() / r.floor_objective,
+        r.seconds,
+        r.verdict
+    );
+    assert_eq!(r.rank_of_hidden, Some(1), "{} must be ranked first: {}", k.name(), r.verdict);
+    assert_eq!(r.chosen, Some(k), "{} must be chosen: {}", k.name(), r.verdict);
+    match c.envelope {
+        Envelope::Halved => assert!(after <= 0.5 * before, "{}: envelope NRMSE {before:.2} → {after:.2} %, not halved", k.name()),
+        Envelope::TruthLevel => {
+            assert!(truth.is_finite() && after <= truth, "{}: envelope NRMSE {before:.2} → {after:.2} %, above the true machine's worst {truth:.2} %", k.name());
+            // Not halved: else the case would be stated as `Halved`.
+            assert!(after > 0.5 * before, "{}: {before:.2} → {after:.2} % is halved now: state it as Halved", k.name());
+        }
+    }
+}
+
+fn assert_control(preset: &str, seed: u64) {
+    let r = run(preset, None, seed, DRAWN);
+    eprintln!("control on {preset}, seed {seed}: SNR {:.1} dB; objective / floor {:.2}; {}", r.snr_db, r.calibrated_objective() / r.floor_objective, r.verdict);
+    assert_eq!(r.chosen, None, "a control must answer nothing significant: {}", r.verdict);
+    assert!(r.verdict.starts_with("nothing significant"), "{}", r.verdict);
+}
+
+#[test]
+fn every_effect_of_the_catalogue_has_one_case_on_a_base_it_applies_to() {
+    for k in EffectKind::ALL {
+        let cases: Vec<&Case> = CASES.iter().filter(|c| c.effect == k).collect();
+        assert_eq!(cases.len(), 1, "{}: one case", k.name());
+        let base = model::preset(cases[0].preset).unwrap();
+        assert!(Effects::applicable(k, &base), "{} does not apply to {}", k.name(), cases[0].preset);
+    }
+}
+
+#[test]
+fn a_hidden_load_zone_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::LoadZone);
+}
+
+#[test]
+fn a_hidden_slip_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::Slip);
+}
+
+#[test]
+fn a_hidden_casing_mode_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::CasingModes);
+}
+
+#[test]
+fn a_hidden_gear_mesh_variation_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::GearMesh);
+}
+
+#[test]
+fn a_hidden_tooth_fault_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::ToothFault);
+}
+
+#[test]
+fn a_hidden_speed_fluctuation_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::SpeedFluctuation);
+}
+
+#[test]
+fn a_hidden_sensor_roll_off_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::SensorResponse);
+}
+
+#[test]
+fn a_hidden_unbalance_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::Unbalance);
+}
+
+#[test]
+fn a_hidden_misalignment_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::Misalignment);
+}
+
+#[test]
+fn a_hidden_extended_fault_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::ExtendedFault);
+}
+
+#[test]
+fn a_hidden_path_modulation_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::PathModulation);
+}
+
+#[test]
+fn a_hidden_belt_drive_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::BeltDrive);
+}
+
+#[test]
+fn a_hidden_contact_nonlinearity_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::NonlinearContact);
+}
+
+#[test]
+fn a_hidden_noise_level_is_ranked_first_and_chosen() {
+    assert_found(EffectKind::Noise);
+}
+
+#[test]
+fn a_bearing_base_control_answers_nothing_significant() {
+    assert_control(BEARING, 9914);
+}
+
+#[test]
+fn a_gear_base_control_answers_nothing_significant() {
+    assert_control(GEAR, 9934);
+}
