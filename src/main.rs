@@ -416,6 +416,24 @@ struct SearchArgs {
     /// "Detection limits"; the default is 4).
     #[arg(long, value_name = "K", default_value_t = LoopOptions::default().random_effect_realisations as u16, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_REALISATIONS as i64))]
     random_effect_realisations: u16,
+    /// Experimental: the weights of the objective's domains, envelope, PSD in dB and each SCF
+    /// slice, e.g. `1,0,0` for an envelope-only search (default 1,0.5,0.25; docs/loop-notebook.md
+    /// "Session 59: an envelope-only objective on the CWRU records").
+    #[arg(long, value_name = "E,P,S", value_parser = parse_domain_weights)]
+    domain_weights: Option<[f64; 3]>,
+}
+
+/// Three domain weights as the library checks them (`LoopOptions::validate`), refused at
+/// parse time.
+fn parse_domain_weights(s: &str) -> std::result::Result<[f64; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [e, p, c] = parts[..] else { return Err(format!("{s}: give three weights, envelope,psd,scf (e.g. 1,0.5,0.25)")) };
+    let mut w = [0.0; 3];
+    for (slot, (text, name)) in w.iter_mut().zip([(e, "envelope"), (p, "psd"), (c, "scf")]) {
+        *slot = text.parse().map_err(|err| format!("{s}: the {name} weight `{text}`: {err}"))?;
+    }
+    LoopOptions { weights: w, ..Default::default() }.validate().map_err(|e| e.to_string())?;
+    Ok(w)
 }
 
 fn parse_rounds(s: &str) -> std::result::Result<usize, String> {
@@ -447,6 +465,9 @@ impl SearchArgs {
         let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
+        if let Some(w) = self.domain_weights {
+            o.weights = w;
+        }
         o
     }
 }

@@ -140,6 +140,10 @@ fn confusion_refuses_a_bad_detection_sweep_before_any_work() {
     assert_clean_failure(&run(&["confusion", "--effect", "slip", "--fit-duration-s", "0.1"]), &["--fit-duration-s", "0.2 to 60 s"]);
     assert_clean_failure(&run(&["confusion", "--effect", "slip", "--floor-margin=-0.1"]), &["--floor-margin", "-0.1", "margin ≥ 0"]);
     assert_clean_failure(&run(&["diagnose", "nowhere.wav", "--floor-margin", "inf"]), &["--floor-margin", "inf", "finite"]);
+    assert_clean_failure(&run(&["diagnose", "nowhere.wav", "--domain-weights", "1,0"]), &["--domain-weights", "three weights"]);
+    assert_clean_failure(&run(&["confusion", "--effect", "slip", "--domain-weights", "1,x,0"]), &["--domain-weights", "psd weight `x`"]);
+    assert_clean_failure(&run(&["confusion", "--effect", "slip", "--domain-weights", "0,0,0"]), &["--domain-weights", "not all zero"]);
+    assert_clean_failure(&run(&["diagnose", "nowhere.wav", "--domain-weights=1,-0.5,0"]), &["--domain-weights", "non-negative"]);
 }
 
 #[test]
