@@ -83,12 +83,26 @@ impl<'a> Simulator<'a> {
     /// One RK4 step of `dt`. The stage slopes of the displacements are the stage velocities
     /// themselves (`v`, then `k[4..7]`), so they are read in place rather than copied.
     fn rk4(&mut self) {
+        self.rk4_first_slope();
+        self.rk4_finish();
+    }
+
+    /// The first stage of [`Simulator::rk4`]: the accelerations at the current state, and the
+    /// sensor reading they give (`k1_reading`, which is [`Simulator::sensor`]'s value here).
+    /// The state is not changed.
+    fn rk4_first_slope(&mut self) {
+        let sys = &self.model.system;
+        let k1v = &mut self.k[0];
+        sys.accelerations(self.t, &self.q, &self.v, k1v);
+        self.k1_reading = self.model.sensor.terms.iter().map(|(d, w)| w * k1v[*d]).sum();
+    }
+
+    /// The rest of [`Simulator::rk4`], after [`Simulator::rk4_first_slope`].
+    fn rk4_finish(&mut self) {
         let sys = &self.model.system;
         let (h, t) = (self.dt, self.t);
         let n = self.q.len();
         let [k1v, k2v, k3v, k4v, v2, v3, v4] = &mut self.k;
-        sys.accelerations(t, &self.q, &self.v, k1v);
-        self.k1_reading = self.model.sensor.terms.iter().map(|(d, w)| w * k1v[*d]).sum();
         for i in 0..n {
             self.tmp_q[i] = self.q[i] + 0.5 * h * self.v[i];
             v2[i] = self.v[i] + 0.5 * h * k1v[i];
@@ -122,12 +136,19 @@ impl<'a> Simulator<'a> {
     /// [`Simulator::step`], also appending the sensor reading at every sub-step (the internal
     /// rate `fs · substeps`) to `fine`, for anti-alias decimation.
     pub fn step_recording(&mut self, mut fine: Option<&mut Vec<f64>>) -> StepResult {
-        let reading = self.sensor();
+        // The reading at the start is the first RK4 stage's: one force evaluation, not two
+        // (the same accelerations at the same state, so the same value to the bit).
+        self.rk4_first_slope();
+        let reading = self.k1_reading;
         if !reading.is_finite() {
             return StepResult::Diverged { t_s: self.t, dof: self.model.machine.sensor.dof.clone(), what: "non-finite sensor reading".into() };
         }
-        for _ in 0..self.substeps {
-            self.rk4();
+        for sub in 0..self.substeps {
+            if sub == 0 {
+                self.rk4_finish();
+            } else {
+                self.rk4();
+            }
             if let Some(f) = fine.as_deref_mut() {
                 f.push(self.k1_reading);
             }
