@@ -109,6 +109,7 @@ fn natural_frequencies_match_an_independent_assembly() {
         motion: ShaftMotion::constant(0.0),
         faults: vec![],
         slip: vec![],
+        memo: Default::default(),
     }));
     let q = sys.static_equilibrium(0.0, &[0.0, -2e-5, 0.0, 0.0], 1e-9).unwrap();
     let dr = harris_deflection(w, z, kh, n, c);

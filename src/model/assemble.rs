@@ -184,6 +184,7 @@ impl Model {
                 motion: motions[si],
                 faults,
                 slip,
+                memo: Default::default(),
             }));
             q_guess.resize(sys.n(), 0.0);
         }
@@ -210,6 +211,7 @@ impl Model {
                 stiffness: MeshStiffness { mean_n_per_m: gp.mean_mesh_stiffness_n_per_m, variation_fraction: variation, contact_ratio, pinion_teeth: gp.pinion_teeth, tooth_fault },
                 damping_n_s_per_m: gp.mesh_damping_n_s_per_m,
                 pinion_motion: motions[pi],
+                memo: Default::default(),
             }));
         }
 

@@ -186,6 +186,21 @@ pub struct BearingElement {
     pub faults: Vec<BearingFault>,
     /// Slip table: `slip[j][m]` = angular offset (rad) of ball `j` at cage revolution `m`.
     pub slip: Vec<Vec<f64>>,
+    /// This element's key in the per-thread memo of what its forces take from time alone
+    /// (`Default::default()`).
+    pub memo: super::gear::MemoId,
+}
+
+/// What a bearing's force evaluation takes from time alone: the shaft and cage angles, the
+/// balls that may meet a fault, the cage revolutions, and the cage angle's sine and cosine.
+#[derive(Clone, Copy)]
+struct TimeState {
+    shaft_angle: f64,
+    cage: f64,
+    windows: FaultWindows,
+    rev: f64,
+    sin_cage: f64,
+    cos_cage: f64,
 }
 
 /// Smallest non-negative representative of `a` modulo 2π.
@@ -230,6 +245,7 @@ fn spacing_sin_cos(balls: usize) -> (f64, f64) {
 /// of either side, so a ball declared far would have got exactly zero depth from
 /// [`race_depth`]: skipping it leaves every force bit-identical. A ball fault is seen by
 /// ball 0 only.
+#[derive(Clone, Copy)]
 struct FaultWindows {
     /// Per race fault: `(θ_f − cage)` reduced to about [0, 2π), and `w + ε`.
     race: [(f64, f64); Self::MAX_RACE],
@@ -305,6 +321,37 @@ impl BearingElement {
 
     /// Cage angle (rad) for a shaft angle (rad).
     #[inline]
+    /// What a force evaluation at `t` takes from time alone ([`TimeState`]), remembered per
+    /// thread for the last time seen: an RK4 step evaluates the forces at t, twice at t + h/2
+    /// and at t + h, which is the next step's t, so two of its four are repeats, and the memo
+    /// gives back the very values computed (every force bit for bit the same). It assumes
+    /// the element is not changed once it has been evaluated, as a system's boxed elements
+    /// cannot be.
+    fn time_state(&self, t: f64) -> TimeState {
+        use std::cell::Cell;
+        thread_local! {
+            /// (element key, time bits, state), four slots chosen by key.
+            static LAST: [Cell<Option<(u64, u64, TimeState)>>; 4] = const { [const { Cell::new(None) }; 4] };
+        }
+        let key = self.memo.key();
+        LAST.with(|slots| {
+            let slot = &slots[(key % 4) as usize];
+            if let Some((k, t_bits, state)) = slot.get() {
+                if k == key && t_bits == t.to_bits() {
+                    return state;
+                }
+            }
+            let shaft_angle = self.motion.angle(t);
+            let cage = self.cage_angle_of(shaft_angle);
+            let windows = FaultWindows::new(&self.faults, cage, shaft_angle, self.race_radii_m());
+            let rev = Self::cage_revolutions(cage);
+            let (sin_cage, cos_cage) = cage.sin_cos();
+            let state = TimeState { shaft_angle, cage, windows, rev, sin_cage, cos_cage };
+            slot.set(Some((key, t.to_bits(), state)));
+            state
+        })
+    }
+
     fn cage_angle_of(&self, shaft_angle: f64) -> f64 {
         0.5 * (1.0 - self.ratio) * shaft_angle
     }
@@ -434,22 +481,19 @@ impl ForceElement for BearingElement {
         let dx = q[self.shaft.0] - q[self.pedestal.0];
         let dy = q[self.shaft.1] - q[self.pedestal.1];
         let (mut fx, mut fy) = (0.0, 0.0);
-        let shaft_angle = self.motion.angle(t);
-        let cage = self.cage_angle_of(shaft_angle);
+        // Of the balls in contact, only those near a fault can see a depth: which they are is
+        // decided once per time (`FaultWindows`), so the others skip it too.
+        let TimeState { shaft_angle, cage, windows, rev, sin_cage, cos_cage } = self.time_state(t);
         let spacing = TAU / self.balls as f64;
         // A fault only deepens the gap (depth h ≥ 0): a ball out of contact without it,
         // δ ≤ 0, stays out with it (δ − h ≤ δ ≤ 0 exactly in floating point), so its fault
         // depth, most of a force evaluation's cost, is skipped. The result is bit-identical.
         let skip_unloaded = self.faults.iter().all(|f| f.profile.never_negative());
-        // Of the balls in contact, only those near a fault can see a depth: which they are is
-        // decided once per evaluation (`FaultWindows`), so the others skip it too.
-        let windows = FaultWindows::new(&self.faults, cage, shaft_angle, self.race_radii_m());
         let has_slip = !self.slip.is_empty();
-        let rev = Self::cage_revolutions(cage);
         // Ball j sits at φ_j = cage + j·spacing (+ slip): one sin_cos for the cage, then a
         // rotation recurrence by the spacing, and a 4th-order Taylor rotation by the small slip
         // offset (|ξ| ≲ 0.05 rad, error < 3e-9), instead of a sin_cos per ball.
-        let (mut s0, mut c0) = cage.sin_cos();
+        let (mut s0, mut c0) = (sin_cage, cos_cage);
         let (ds, dc) = spacing_sin_cos(self.balls);
         let mut jf = 0.0; // j as f64, counted (exact) rather than converted from usize
         for j in 0..self.balls {
@@ -581,6 +625,50 @@ mod tests {
     }
 
     #[test]
+    fn the_time_memo_of_each_bearing_gives_its_own_forces() {
+        // Several bearings (more than the memo's four slots, so keys share slots), each
+        // evaluated at the same times in turn, with other displacements at a repeated time (as
+        // RK4's stages 2 and 3 are): every force must be bit for bit what a fresh element (a new
+        // key, nothing remembered) gives, so no bearing ever reads another's angles or windows.
+        let spall = DepthProfile::Spall { length_m: 0.533e-3, depth_m: 1e-4, ball_radius_m: 3.97e-3 };
+        let make = |i: usize| BearingElement {
+            name: format!("b{i}"),
+            shaft: (0, 1),
+            pedestal: (2, 3),
+            balls: 8 + i,
+            ball_diameter_m: 7.94e-3,
+            pitch_diameter_m: 39.04e-3,
+            ratio: 7.94 / 39.04 * (1.0 + 0.05 * i as f64),
+            clearance_m: 1e-6 * i as f64,
+            law: ContactLaw::Hertz { k: 8e9, n: 1.5 },
+            motion: ShaftMotion::constant(20.0 + 3.0 * i as f64),
+            faults: vec![BearingFault { location: if i.is_multiple_of(2) { FaultLocation::Inner } else { FaultLocation::Outer }, profile: spall.clone(), position_rad: 0.4 * i as f64 }],
+            slip: vec![],
+            memo: Default::default(),
+        };
+        let bearings: Vec<BearingElement> = (0..6).map(make).collect();
+        let forces = |b: &BearingElement, t: f64, q: &[f64]| {
+            let mut f = [0.0; 4];
+            b.add_forces(t, q, &[0.0; 4], &mut f);
+            f.map(f64::to_bits)
+        };
+        let mut loaded = 0;
+        for step in 0..400 {
+            let t = step as f64 * 3.1e-4;
+            for (k, dy) in [(0, -9e-6), (1, -1.2e-5), (2, -1.1e-5)] {
+                let q = [1e-7 * k as f64, dy, 0.0, 0.0];
+                for b in bearings.iter().chain(bearings.iter().rev()) {
+                    let fresh = BearingElement { memo: Default::default(), ..b.clone() };
+                    let got = forces(b, t, &q);
+                    assert_eq!(got, forces(&fresh, t, &q), "{} at t = {t}", b.name);
+                    loaded += usize::from(got[1] != 0);
+                }
+            }
+        }
+        assert!(loaded > 1000, "the balls must carry load for the check to mean anything: {loaded}");
+    }
+
+    #[test]
     fn a_ball_the_fault_windows_pass_over_sees_no_fault_depth() {
         // `FaultWindows` lets `add_forces` skip the fault depth of balls far from every fault;
         // that is bit-identical only if each skipped ball's depth is exactly zero. Checked on
@@ -613,6 +701,7 @@ mod tests {
                 motion: ShaftMotion::constant(29.95),
                 faults,
                 slip: vec![],
+                memo: Default::default(),
             };
             let spacing = TAU / 9.0;
             for scale in [1.0, 1e3, 1e5] {

@@ -82,9 +82,61 @@ pub struct GearMeshElement {
     pub damping_n_s_per_m: f64,
     /// Pinion rotation (phase of the mesh).
     pub pinion_motion: ShaftMotion,
+    /// This element's key in the per-thread memo of its stiffness (`Default::default()`).
+    pub memo: MemoId,
+}
+
+/// A force element's key in a per-thread memo of what depends on time alone: unique to each
+/// element value (a clone gets a new one), so an entry is never read by another element, nor
+/// by one built later at the same address.
+#[derive(Debug)]
+pub struct MemoId(u64);
+
+impl Default for MemoId {
+    fn default() -> Self {
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+        Self(NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed))
+    }
+}
+
+impl MemoId {
+    /// The key.
+    pub(crate) fn key(&self) -> u64 {
+        self.0
+    }
+}
+
+impl Clone for MemoId {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
 }
 
 impl GearMeshElement {
+    /// The mesh stiffness at time `t`: `stiffness.at(pinion_motion.angle(t))`, remembered per
+    /// thread for the last time seen. An RK4 step evaluates the forces at t, twice at t + h/2
+    /// and at t + h, which is the next step's t: two of its four stiffnesses are repeats, and
+    /// the memo returns the very value computed (bit for bit the same samples). It assumes the
+    /// element is not changed once it has been evaluated, as a system's boxed elements cannot
+    /// be.
+    fn stiffness_at_time(&self, t: f64) -> f64 {
+        use std::cell::Cell;
+        thread_local! {
+            /// (element key, time bits, stiffness), four slots chosen by key.
+            static LAST: [Cell<(u64, u64, f64)>; 4] = const { [const { Cell::new((0, 0, 0.0)) }; 4] };
+        }
+        LAST.with(|slots| {
+            let slot = &slots[(self.memo.key() % 4) as usize];
+            let (key, t_bits, k) = slot.get();
+            if key == self.memo.0 && t_bits == t.to_bits() {
+                return k;
+            }
+            let k = self.stiffness.at(self.pinion_motion.angle(t));
+            slot.set((self.memo.0, t.to_bits(), k));
+            k
+        })
+    }
+
     /// Dynamic transmission error along the line of action, m:
     /// `δ = r_p θ_p − r_g θ_g + y_p − y_g` (torsional vibration angles in each gear's own sense).
     pub fn deflection(&self, q: &[f64]) -> f64 {
@@ -100,7 +152,7 @@ impl ForceElement for GearMeshElement {
     fn add_forces(&self, t: f64, q: &[f64], v: &[f64], f: &mut [f64]) {
         let d = self.deflection(q);
         let dd = self.base_radius_m.0 * v[self.theta.0] - self.base_radius_m.1 * v[self.theta.1] + v[self.line.0] - v[self.line.1];
-        let k = self.stiffness.at(self.pinion_motion.angle(t));
+        let k = self.stiffness_at_time(t);
         let force = k * d + self.damping_n_s_per_m * dd;
         f[self.theta.0] -= force * self.base_radius_m.0;
         f[self.theta.1] += force * self.base_radius_m.1;
@@ -166,6 +218,35 @@ impl ForceElement for OrderForce {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_stiffness_memo_of_each_mesh_gives_its_own_stiffness() {
+        // Six meshes (more than the memo's four slots, so keys share slots), one a clone of
+        // another changed after cloning, evaluated in turn at the same times, twice each (as
+        // RK4's stages 2 and 3 are): each must get its own `at(angle(t))`, bit for bit.
+        let base = MeshStiffness { mean_n_per_m: 1e8, variation_fraction: 0.3, contact_ratio: 1.6, pinion_teeth: 18, tooth_fault: Some((3, 0.5)) };
+        let make = |i: usize| GearMeshElement {
+            name: format!("m{i}"),
+            theta: (0, 1),
+            line: (2, 3),
+            base_radius_m: (0.02, 0.03),
+            stiffness: MeshStiffness { variation_fraction: 0.1 * i as f64, pinion_teeth: 18 + i as u32, ..base.clone() },
+            damping_n_s_per_m: 0.0,
+            pinion_motion: ShaftMotion::constant(15.0 + i as f64),
+            memo: MemoId::default(),
+        };
+        let mut meshes: Vec<GearMeshElement> = (0..5).map(make).collect();
+        let mut changed = meshes[2].clone();
+        changed.stiffness.variation_fraction = 0.9;
+        meshes.push(changed);
+        for step in 0..2000 {
+            let t = step as f64 * 1.7e-4;
+            for m in meshes.iter().chain(meshes.iter().rev()).chain(meshes.iter()) {
+                let want = m.stiffness.at(m.pinion_motion.angle(t));
+                assert_eq!(m.stiffness_at_time(t).to_bits(), want.to_bits(), "{} at t = {t}", m.name);
+            }
+        }
+    }
 
     #[test]
     fn mesh_stiffness_has_the_mean_and_the_period() {

@@ -25,7 +25,7 @@ pub use cache::{clear_loop_cache, integration_key, loop_cache_stats, set_loop_ca
 pub use bearing::{BearingElement, BearingFault, ContactLaw, DepthProfile, ShaftMotion};
 pub use effects::*;
 pub use error::ModelError;
-pub use gear::{GearMeshElement, MeshStiffness, OrderForce};
+pub use gear::{GearMeshElement, MemoId, MeshStiffness, OrderForce};
 pub use machine::{AntiAliasFilter, Bearing, Coupling, DrivenBy, FaultLocation, GearPairSpec, LocalFault, Machine, Sensor, Shaft};
 pub use simulate::{coloured_noise, finish, post_process, run, run_raw, sensor_lowpass, Simulator, StepResult};
 pub use system::{ForceElement, Spring, System};
