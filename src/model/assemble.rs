@@ -259,6 +259,7 @@ impl Model {
                 dofs: (shaft_dofs[si].0, Some(shaft_dofs[si].1)),
                 motion: motions[si],
                 terms: vec![(1.0, u.mass_eccentricity_kg_m * w * w, 0.0, true)],
+                memo: Default::default(),
             }));
         }
         if let Some(mi) = &fx.misalignment {
@@ -268,6 +269,7 @@ impl Model {
                 dofs: (shaft_dofs[si].0, Some(shaft_dofs[si].1)),
                 motion: motions[si],
                 terms: vec![(2.0, mi.force_2x_n, 0.0, false), (1.0, mi.force_1x_n, 0.3, false)],
+                memo: Default::default(),
             }));
         }
         if let Some(bd) = &fx.belt_drive {
@@ -283,6 +285,7 @@ impl Model {
                 dofs: (shaft_dofs[si].1, None),
                 motion: motions[si],
                 terms: (1..=bd.harmonics).map(|k| (order * k as f64, bd.force_n / k as f64, 0.0, false)).collect(),
+                memo: Default::default(),
             }));
         }
 

@@ -38,6 +38,10 @@ impl ShaftMotion {
 
     /// Instantaneous speed in Hz: `f₀ (1 + a cos 2π f_m t)`.
     pub fn speed_hz(&self, t: f64) -> f64 {
+        // At constant speed `1 + 0 · cos(…)` is exactly 1 (the cosine is finite): skip it.
+        if self.fluctuation == 0.0 {
+            return self.mean_hz;
+        }
         self.mean_hz * (1.0 + self.fluctuation * (TAU * self.fluctuation_hz * t).cos())
     }
 }
@@ -188,7 +192,7 @@ pub struct BearingElement {
     pub slip: Vec<Vec<f64>>,
     /// This element's key in the per-thread memo of what its forces take from time alone
     /// (`Default::default()`).
-    pub memo: super::gear::MemoId,
+    pub memo: super::memo::MemoId,
 }
 
 /// What a bearing's force evaluation takes from time alone: the shaft and cage angles, the
@@ -321,34 +325,19 @@ impl BearingElement {
 
     /// Cage angle (rad) for a shaft angle (rad).
     #[inline]
-    /// What a force evaluation at `t` takes from time alone ([`TimeState`]), remembered per
-    /// thread for the last time seen: an RK4 step evaluates the forces at t, twice at t + h/2
-    /// and at t + h, which is the next step's t, so two of its four are repeats, and the memo
-    /// gives back the very values computed (every force bit for bit the same). It assumes
-    /// the element is not changed once it has been evaluated, as a system's boxed elements
-    /// cannot be.
+    /// What a force evaluation at `t` takes from time alone ([`TimeState`]), through the
+    /// per-thread memo ([`super::memo`]).
     fn time_state(&self, t: f64) -> TimeState {
-        use std::cell::Cell;
         thread_local! {
-            /// (element key, time bits, state), four slots chosen by key.
-            static LAST: [Cell<Option<(u64, u64, TimeState)>>; 4] = const { [const { Cell::new(None) }; 4] };
+            static LAST: super::memo::Slots<TimeState> = const { [const { std::cell::Cell::new(None) }; 4] };
         }
-        let key = self.memo.key();
-        LAST.with(|slots| {
-            let slot = &slots[(key % 4) as usize];
-            if let Some((k, t_bits, state)) = slot.get() {
-                if k == key && t_bits == t.to_bits() {
-                    return state;
-                }
-            }
+        super::memo::at_time(&LAST, &self.memo, t, || {
             let shaft_angle = self.motion.angle(t);
             let cage = self.cage_angle_of(shaft_angle);
             let windows = FaultWindows::new(&self.faults, cage, shaft_angle, self.race_radii_m());
             let rev = Self::cage_revolutions(cage);
             let (sin_cage, cos_cage) = cage.sin_cos();
-            let state = TimeState { shaft_angle, cage, windows, rev, sin_cage, cos_cage };
-            slot.set(Some((key, t.to_bits(), state)));
-            state
+            TimeState { shaft_angle, cage, windows, rev, sin_cage, cos_cage }
         })
     }
 

@@ -6,6 +6,7 @@
 //! the torsional vibration of both gears and the translation of both shafts along that line.
 
 use super::bearing::ShaftMotion;
+use super::memo::{at_time, MemoId, Slots};
 use super::system::ForceElement;
 use std::f64::consts::TAU;
 
@@ -86,55 +87,14 @@ pub struct GearMeshElement {
     pub memo: MemoId,
 }
 
-/// A force element's key in a per-thread memo of what depends on time alone: unique to each
-/// element value (a clone gets a new one), so an entry is never read by another element, nor
-/// by one built later at the same address.
-#[derive(Debug)]
-pub struct MemoId(u64);
-
-impl Default for MemoId {
-    fn default() -> Self {
-        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
-        Self(NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed))
-    }
-}
-
-impl MemoId {
-    /// The key.
-    pub(crate) fn key(&self) -> u64 {
-        self.0
-    }
-}
-
-impl Clone for MemoId {
-    fn clone(&self) -> Self {
-        Self::default()
-    }
-}
-
 impl GearMeshElement {
-    /// The mesh stiffness at time `t`: `stiffness.at(pinion_motion.angle(t))`, remembered per
-    /// thread for the last time seen. An RK4 step evaluates the forces at t, twice at t + h/2
-    /// and at t + h, which is the next step's t: two of its four stiffnesses are repeats, and
-    /// the memo returns the very value computed (bit for bit the same samples). It assumes the
-    /// element is not changed once it has been evaluated, as a system's boxed elements cannot
-    /// be.
+    /// The mesh stiffness at time `t`, `stiffness.at(pinion_motion.angle(t))`, through the
+    /// per-thread memo ([`super::memo`]).
     fn stiffness_at_time(&self, t: f64) -> f64 {
-        use std::cell::Cell;
         thread_local! {
-            /// (element key, time bits, stiffness), four slots chosen by key.
-            static LAST: [Cell<(u64, u64, f64)>; 4] = const { [const { Cell::new((0, 0, 0.0)) }; 4] };
+            static LAST: Slots<f64> = const { [const { std::cell::Cell::new(None) }; 4] };
         }
-        LAST.with(|slots| {
-            let slot = &slots[(self.memo.key() % 4) as usize];
-            let (key, t_bits, k) = slot.get();
-            if key == self.memo.0 && t_bits == t.to_bits() {
-                return k;
-            }
-            let k = self.stiffness.at(self.pinion_motion.angle(t));
-            slot.set((self.memo.0, t.to_bits(), k));
-            k
-        })
+        at_time(&LAST, &self.memo, t, || self.stiffness.at(self.pinion_motion.angle(t)))
     }
 
     /// Dynamic transmission error along the line of action, m:
@@ -180,6 +140,24 @@ pub struct OrderForce {
     pub motion: ShaftMotion,
     /// (order, amplitude N, phase rad, scales with speed²?) terms.
     pub terms: Vec<(f64, f64, f64, bool)>,
+    /// This element's key in the per-thread memo of its components (`Default::default()`).
+    pub memo: MemoId,
+}
+
+impl OrderForce {
+    /// Terms whose components the memo holds; a force with more computes them every time.
+    const MEMO_TERMS: usize = 4;
+
+    /// Each term's components `(A cos(kθ + φ), A sin(kθ + φ))` at time `t`, `A` scaled with
+    /// the speed² where the term says so.
+    fn component(&self, t: f64, term: usize) -> (f64, f64) {
+        let theta = self.motion.angle(t);
+        let speed_ratio = self.motion.speed_hz(t) / self.motion.mean_hz;
+        let (order, amp, phase, quadratic) = self.terms[term];
+        let a = if quadratic { amp * speed_ratio * speed_ratio } else { amp };
+        let (s, c) = (order * theta + phase).sin_cos();
+        (a * c, a * s)
+    }
 }
 
 impl ForceElement for OrderForce {
@@ -188,16 +166,30 @@ impl ForceElement for OrderForce {
     }
 
     fn add_forces(&self, t: f64, _q: &[f64], _v: &[f64], f: &mut [f64]) {
-        let theta = self.motion.angle(t);
-        let speed_ratio = self.motion.speed_hz(t) / self.motion.mean_hz;
-        for &(order, amp, phase, quadratic) in &self.terms {
-            let a = if quadratic { amp * speed_ratio * speed_ratio } else { amp };
-            let (s, c) = (order * theta + phase).sin_cos();
-            f[self.dofs.0] += a * c;
-            if let Some(y) = self.dofs.1 {
-                f[y] += a * s;
+        let n = self.terms.len();
+        let mut add = |(x, y): (f64, f64)| {
+            f[self.dofs.0] += x;
+            if let Some(dof_y) = self.dofs.1 {
+                f[dof_y] += y;
             }
+        };
+        if n > Self::MEMO_TERMS {
+            (0..n).for_each(|k| add(self.component(t, k)));
+            return;
         }
+        // Through the per-thread memo ([`super::memo`]): the same components, added in the
+        // same order, so the same forces to the bit.
+        thread_local! {
+            static LAST: Slots<[(f64, f64); OrderForce::MEMO_TERMS]> = const { [const { std::cell::Cell::new(None) }; 4] };
+        }
+        let components = at_time(&LAST, &self.memo, t, || {
+            let mut c = [(0.0, 0.0); Self::MEMO_TERMS];
+            for (k, ck) in c.iter_mut().enumerate().take(n) {
+                *ck = self.component(t, k);
+            }
+            c
+        });
+        components[..n].iter().for_each(|&c| add(c));
     }
 
     /// `−F(t) · q`, the potential of the prescribed force frozen at `t`, J.
@@ -244,6 +236,45 @@ mod tests {
             for m in meshes.iter().chain(meshes.iter().rev()).chain(meshes.iter()) {
                 let want = m.stiffness.at(m.pinion_motion.angle(t));
                 assert_eq!(m.stiffness_at_time(t).to_bits(), want.to_bits(), "{} at t = {t}", m.name);
+            }
+        }
+    }
+
+    #[test]
+    fn the_memo_of_each_order_force_gives_its_own_forces() {
+        // Rotating and pulsating forces, one with more terms than the memo holds, more forces
+        // than the memo's slots, evaluated in turn at the same times and twice at each (as RK4's
+        // stages 2 and 3 are), at constant and fluctuating speed: each must add what the
+        // formula gives, term after term, bit for bit.
+        let make = |i: usize| OrderForce {
+            name: format!("f{i}"),
+            dofs: (0, if i % 3 == 2 { None } else { Some(1) }),
+            motion: ShaftMotion { mean_hz: 10.0 + i as f64, fluctuation: if i.is_multiple_of(2) { 0.0 } else { 0.02 }, fluctuation_hz: 1.5 },
+            terms: (0..(if i == 4 { 6 } else { 1 + i % 3 })).map(|k| (1.0 + 0.5 * k as f64, 3.0 + k as f64, 0.1 * k as f64, k % 2 == 0)).collect(),
+            memo: MemoId::default(),
+        };
+        let forces: Vec<OrderForce> = (0..6).map(make).collect();
+        // The formula, as `add_forces` computed it before the memo.
+        let reference = |o: &OrderForce, t: f64| {
+            let mut f = [0.25, -0.5];
+            let theta = o.motion.angle(t);
+            let speed_ratio = o.motion.speed_hz(t) / o.motion.mean_hz;
+            for &(order, amp, phase, quadratic) in &o.terms {
+                let a = if quadratic { amp * speed_ratio * speed_ratio } else { amp };
+                let (s, c) = (order * theta + phase).sin_cos();
+                f[o.dofs.0] += a * c;
+                if let Some(y) = o.dofs.1 {
+                    f[y] += a * s;
+                }
+            }
+            f.map(f64::to_bits)
+        };
+        for step in 0..1000 {
+            let t = step as f64 * 2.3e-4;
+            for o in forces.iter().chain(forces.iter().rev()).chain(forces.iter()) {
+                let mut f = [0.25, -0.5];
+                o.add_forces(t, &[0.0; 2], &[0.0; 2], &mut f);
+                assert_eq!(f.map(f64::to_bits), reference(o, t), "{} at t = {t}", o.name);
             }
         }
     }

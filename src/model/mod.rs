@@ -17,6 +17,7 @@ mod effects;
 mod error;
 mod gear;
 mod machine;
+mod memo;
 mod simulate;
 mod system;
 
@@ -25,7 +26,8 @@ pub use cache::{clear_loop_cache, integration_key, loop_cache_stats, set_loop_ca
 pub use bearing::{BearingElement, BearingFault, ContactLaw, DepthProfile, ShaftMotion};
 pub use effects::*;
 pub use error::ModelError;
-pub use gear::{GearMeshElement, MemoId, MeshStiffness, OrderForce};
+pub use gear::{GearMeshElement, MeshStiffness, OrderForce};
+pub use memo::MemoId;
 pub use machine::{AntiAliasFilter, Bearing, Coupling, DrivenBy, FaultLocation, GearPairSpec, LocalFault, Machine, Sensor, Shaft};
 pub use simulate::{coloured_noise, finish, post_process, run, run_raw, sensor_lowpass, Simulator, StepResult};
 pub use system::{ForceElement, Spring, System};
