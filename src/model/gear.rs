@@ -148,15 +148,16 @@ impl OrderForce {
     /// Terms whose components the memo holds; a force with more computes them every time.
     const MEMO_TERMS: usize = 4;
 
-    /// Each term's components `(A cos(kθ + φ), A sin(kθ + φ))` at time `t`, `A` scaled with
-    /// the speed² where the term says so.
-    fn component(&self, t: f64, term: usize) -> (f64, f64) {
+    /// Every term's components `(A cos(kθ + φ), A sin(kθ + φ))` at time `t`, in order, `A`
+    /// scaled with the speed² where the term says so.
+    fn components(&self, t: f64) -> impl Iterator<Item = (f64, f64)> + '_ {
         let theta = self.motion.angle(t);
         let speed_ratio = self.motion.speed_hz(t) / self.motion.mean_hz;
-        let (order, amp, phase, quadratic) = self.terms[term];
-        let a = if quadratic { amp * speed_ratio * speed_ratio } else { amp };
-        let (s, c) = (order * theta + phase).sin_cos();
-        (a * c, a * s)
+        self.terms.iter().map(move |&(order, amp, phase, quadratic)| {
+            let a = if quadratic { amp * speed_ratio * speed_ratio } else { amp };
+            let (s, c) = (order * theta + phase).sin_cos();
+            (a * c, a * s)
+        })
     }
 }
 
@@ -174,7 +175,7 @@ impl ForceElement for OrderForce {
             }
         };
         if n > Self::MEMO_TERMS {
-            (0..n).for_each(|k| add(self.component(t, k)));
+            self.components(t).for_each(add);
             return;
         }
         // Through the per-thread memo ([`super::memo`]): the same components, added in the
@@ -184,9 +185,7 @@ impl ForceElement for OrderForce {
         }
         let components = at_time(&LAST, &self.memo, t, || {
             let mut c = [(0.0, 0.0); Self::MEMO_TERMS];
-            for (k, ck) in c.iter_mut().enumerate().take(n) {
-                *ck = self.component(t, k);
-            }
+            c.iter_mut().zip(self.components(t)).for_each(|(ck, v)| *ck = v);
             c
         });
         components[..n].iter().for_each(|&c| add(c));
