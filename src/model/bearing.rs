@@ -196,7 +196,9 @@ pub struct BearingElement {
 }
 
 /// What a bearing's force evaluation takes from time alone: the shaft and cage angles, the
-/// balls that may meet a fault, the cage revolutions, and the cage angle's sine and cosine.
+/// balls that may meet a fault, the cage revolutions, the cage angle's sine and cosine, and,
+/// for a bearing of at most [`TimeState::TABLED_BALLS`] balls, each ball's direction and fault
+/// depth ([`TimeState::balls`]).
 #[derive(Clone, Copy)]
 struct TimeState {
     shaft_angle: f64,
@@ -205,6 +207,33 @@ struct TimeState {
     rev: f64,
     sin_cage: f64,
     cos_cage: f64,
+    balls: BallTable,
+}
+
+/// Per ball j, at one time: `(sin φ_j, cos φ_j)` and the fault depth `h_j` under it (0 for a
+/// ball no fault window holds; `δ − 0 = δ` exactly, so subtracting it changes nothing).
+#[derive(Clone, Copy)]
+struct BallTable {
+    sin: [f64; TimeState::TABLED_BALLS],
+    cos: [f64; TimeState::TABLED_BALLS],
+    depth: [f64; TimeState::TABLED_BALLS],
+}
+
+impl TimeState {
+    /// The most balls whose directions and depths are tabled per time; a bearing with more
+    /// computes them in every evaluation.
+    const TABLED_BALLS: usize = 32;
+
+    /// The value of an empty memo slot, never read.
+    const PLACEHOLDER: Self = Self {
+        shaft_angle: 0.0,
+        cage: 0.0,
+        windows: FaultWindows { race: [(0.0, 0.0); FaultWindows::MAX_RACE], n_race: 0, eps: 0.0, ball0: false, every_ball: false },
+        rev: 0.0,
+        sin_cage: 0.0,
+        cos_cage: 0.0,
+        balls: BallTable { sin: [0.0; Self::TABLED_BALLS], cos: [0.0; Self::TABLED_BALLS], depth: [0.0; Self::TABLED_BALLS] },
+    };
 }
 
 /// Smallest non-negative representative of `a` modulo 2π.
@@ -323,24 +352,71 @@ impl BearingElement {
         self.cage_angle_of(self.motion.angle(t))
     }
 
-    /// Cage angle (rad) for a shaft angle (rad).
+    /// `read` of what a force evaluation at `t` takes from time alone ([`TimeState`]),
+    /// through the per-thread memo ([`super::memo`]), lent rather than copied.
     #[inline]
-    /// What a force evaluation at `t` takes from time alone ([`TimeState`]), through the
-    /// per-thread memo ([`super::memo`]).
-    fn time_state(&self, t: f64) -> TimeState {
+    fn with_time_state<R>(&self, t: f64, read: impl FnOnce(&TimeState) -> R) -> R {
         thread_local! {
-            static LAST: super::memo::Slots<TimeState> = const { [const { std::cell::Cell::new(None) }; 4] };
+            static LAST: super::memo::Slots<TimeState> = const { super::memo::Slots::new(TimeState::PLACEHOLDER) };
         }
-        super::memo::at_time(&LAST, &self.memo, t, || {
-            let shaft_angle = self.motion.angle(t);
-            let cage = self.cage_angle_of(shaft_angle);
-            let windows = FaultWindows::new(&self.faults, cage, shaft_angle, self.race_radii_m());
-            let rev = Self::cage_revolutions(cage);
-            let (sin_cage, cos_cage) = cage.sin_cos();
-            TimeState { shaft_angle, cage, windows, rev, sin_cage, cos_cage }
-        })
+        super::memo::with_at_time(
+            &LAST,
+            &self.memo,
+            t,
+            |state| {
+                let shaft_angle = self.motion.angle(t);
+                let cage = self.cage_angle_of(shaft_angle);
+                let windows = FaultWindows::new(&self.faults, cage, shaft_angle, self.race_radii_m());
+                let rev = Self::cage_revolutions(cage);
+                let (sin_cage, cos_cage) = cage.sin_cos();
+                (state.shaft_angle, state.cage, state.windows, state.rev, state.sin_cage, state.cos_cage) = (shaft_angle, cage, windows, rev, sin_cage, cos_cage);
+                if self.balls <= TimeState::TABLED_BALLS {
+                    let table = &mut state.balls;
+                    self.for_each_ball(cage, rev, (sin_cage, cos_cage), |j, s, c, offset, phi| {
+                        table.sin[j] = s;
+                        table.cos[j] = c;
+                        table.depth[j] = if windows.may_touch(j, offset) { self.fault_depth(j, phi, shaft_angle) } else { 0.0 };
+                    });
+                }
+            },
+            read,
+        )
     }
 
+    /// `each(j, sin φ_j, cos φ_j, o_j, φ_j)` for every ball j at a cage angle `cage` (rad;
+    /// `rev` cage revolutions, `sin_cos_cage` its sine and cosine), where `φ_j = cage + o_j`
+    /// and `o_j = j·spacing + ξ_j` (ξ_j its slip offset).
+    ///
+    /// One sin_cos for the cage (given), then a rotation recurrence by the spacing, and a
+    /// 4th-order Taylor rotation by the small slip offset (|ξ| ≲ 0.05 rad, error < 3e-9),
+    /// instead of a sin_cos per ball.
+    #[inline]
+    fn for_each_ball(&self, cage: f64, rev: f64, sin_cos_cage: (f64, f64), mut each: impl FnMut(usize, f64, f64, f64, f64)) {
+        let spacing = TAU / self.balls as f64;
+        let has_slip = !self.slip.is_empty();
+        let (mut s0, mut c0) = sin_cos_cage;
+        let (ds, dc) = spacing_sin_cos(self.balls);
+        let mut jf = 0.0; // j as f64, counted (exact) rather than converted from usize
+        for j in 0..self.balls {
+            let (mut s, mut c) = (s0, c0);
+            let mut offset = spacing * jf;
+            let mut phi = cage + offset;
+            jf += 1.0;
+            if has_slip {
+                let xi = self.slip_offset_at(j, rev);
+                let x2 = xi * xi;
+                let (sx, cx) = (xi * (1.0 - x2 / 6.0), 1.0 - x2 / 2.0 + x2 * x2 / 24.0);
+                (s, c) = (s * cx + c * sx, c * cx - s * sx);
+                phi += xi;
+                offset += xi;
+            }
+            each(j, s, c, offset, phi);
+            (s0, c0) = (s0 * dc + c0 * ds, c0 * dc - s0 * ds);
+        }
+    }
+
+    /// Cage angle (rad) for a shaft angle (rad).
+    #[inline]
     fn cage_angle_of(&self, shaft_angle: f64) -> f64 {
         0.5 * (1.0 - self.ratio) * shaft_angle
     }
@@ -461,6 +537,53 @@ impl BearingElement {
     }
 }
 
+impl BearingElement {
+    /// The contact force `(F_x, F_y)` of all balls on the shaft, N, at the time of `ts` and the
+    /// relative displacement `(dx, dy)` (shaft − pedestal, m), with each ball's direction and
+    /// depth read from `ts`'s table (at most [`TimeState::TABLED_BALLS`] balls). The same
+    /// values in the same operations as [`Self::contact_forces_untabled`], so the same forces
+    /// to the bit.
+    #[inline]
+    fn contact_forces_tabled(&self, ts: &TimeState, dx: f64, dy: f64) -> (f64, f64) {
+        let (mut fx, mut fy) = (0.0, 0.0);
+        let b = &ts.balls;
+        for j in 0..self.balls {
+            let (s, c) = (b.sin[j], b.cos[j]);
+            // Unit vector from the bearing centre to ball j: (sin φ, −cos φ); φ = 0 is the load
+            // direction (−y, "6 o'clock").
+            let qj = self.contact_force(dx * s - dy * c - self.clearance_m - b.depth[j]);
+            if qj > 0.0 {
+                fx += qj * s;
+                fy -= qj * c;
+            }
+        }
+        (fx, fy)
+    }
+
+    /// [`Self::contact_forces_tabled`], with each ball's direction and depth computed here:
+    /// for bearings with more balls than the table holds.
+    fn contact_forces_untabled(&self, ts: &TimeState, dx: f64, dy: f64) -> (f64, f64) {
+        let (mut fx, mut fy) = (0.0, 0.0);
+        // Of the balls in contact, only those near a fault can see a depth: which they are is
+        // decided once per time (`FaultWindows`), so the others skip it too. A fault only
+        // deepens the gap (depth h ≥ 0): a ball out of contact without it, δ ≤ 0, stays out
+        // with it (δ − h ≤ δ ≤ 0 exactly in floating point), so its fault depth is skipped.
+        let skip_unloaded = self.faults.iter().all(|f| f.profile.never_negative());
+        self.for_each_ball(ts.cage, ts.rev, (ts.sin_cage, ts.cos_cage), |j, s, c, offset, phi| {
+            let mut delta = dx * s - dy * c - self.clearance_m;
+            if ts.windows.may_touch(j, offset) && !(skip_unloaded && delta <= 0.0) {
+                delta -= self.fault_depth(j, phi, ts.shaft_angle);
+            }
+            let qj = self.contact_force(delta);
+            if qj > 0.0 {
+                fx += qj * s;
+                fy -= qj * c;
+            }
+        });
+        (fx, fy)
+    }
+}
+
 impl ForceElement for BearingElement {
     fn name(&self) -> &str {
         &self.name
@@ -469,48 +592,7 @@ impl ForceElement for BearingElement {
     fn add_forces(&self, t: f64, q: &[f64], _v: &[f64], f: &mut [f64]) {
         let dx = q[self.shaft.0] - q[self.pedestal.0];
         let dy = q[self.shaft.1] - q[self.pedestal.1];
-        let (mut fx, mut fy) = (0.0, 0.0);
-        // Of the balls in contact, only those near a fault can see a depth: which they are is
-        // decided once per time (`FaultWindows`), so the others skip it too.
-        let TimeState { shaft_angle, cage, windows, rev, sin_cage, cos_cage } = self.time_state(t);
-        let spacing = TAU / self.balls as f64;
-        // A fault only deepens the gap (depth h ≥ 0): a ball out of contact without it,
-        // δ ≤ 0, stays out with it (δ − h ≤ δ ≤ 0 exactly in floating point), so its fault
-        // depth, most of a force evaluation's cost, is skipped. The result is bit-identical.
-        let skip_unloaded = self.faults.iter().all(|f| f.profile.never_negative());
-        let has_slip = !self.slip.is_empty();
-        // Ball j sits at φ_j = cage + j·spacing (+ slip): one sin_cos for the cage, then a
-        // rotation recurrence by the spacing, and a 4th-order Taylor rotation by the small slip
-        // offset (|ξ| ≲ 0.05 rad, error < 3e-9), instead of a sin_cos per ball.
-        let (mut s0, mut c0) = (sin_cage, cos_cage);
-        let (ds, dc) = spacing_sin_cos(self.balls);
-        let mut jf = 0.0; // j as f64, counted (exact) rather than converted from usize
-        for j in 0..self.balls {
-            let (mut s, mut c) = (s0, c0);
-            let mut offset = spacing * jf;
-            let mut phi = cage + offset;
-            jf += 1.0;
-            if has_slip {
-                let xi = self.slip_offset_at(j, rev);
-                let x2 = xi * xi;
-                let (sx, cx) = (xi * (1.0 - x2 / 6.0), 1.0 - x2 / 2.0 + x2 * x2 / 24.0);
-                (s, c) = (s * cx + c * sx, c * cx - s * sx);
-                phi += xi;
-                offset += xi;
-            }
-            // Unit vector from the bearing centre to ball j: (sin φ, −cos φ); φ = 0 is the
-            // load direction (−y, "6 o'clock").
-            let mut delta = dx * s - dy * c - self.clearance_m;
-            if windows.may_touch(j, offset) && !(skip_unloaded && delta <= 0.0) {
-                delta -= self.fault_depth(j, phi, shaft_angle);
-            }
-            let qj = self.contact_force(delta);
-            if qj > 0.0 {
-                fx += qj * s;
-                fy -= qj * c;
-            }
-            (s0, c0) = (s0 * dc + c0 * ds, c0 * dc - s0 * ds);
-        }
+        let (fx, fy) = self.with_time_state(t, |ts| if self.balls <= TimeState::TABLED_BALLS { self.contact_forces_tabled(ts, dx, dy) } else { self.contact_forces_untabled(ts, dx, dy) });
         f[self.shaft.0] -= fx;
         f[self.shaft.1] -= fy;
         f[self.pedestal.0] += fx;
@@ -655,6 +737,63 @@ mod tests {
             }
         }
         assert!(loaded > 1000, "the balls must carry load for the check to mean anything: {loaded}");
+    }
+
+    #[test]
+    fn the_tabled_ball_directions_and_depths_give_the_computed_forces_to_the_bit() {
+        // A bearing of up to `TABLED_BALLS` balls reads each ball's direction and fault depth
+        // from its time state's table; one with more computes them per evaluation. Both must
+        // give the same forces to the bit: checked on the same bearings through both paths,
+        // at random times (long runs too) and displacements that load some balls and not
+        // others, with slip, for inner, outer, ball and rough extended faults (whose
+        // roughness may go negative, so no depth is skipped) and several at once.
+        let mut next = uniform(0x853C49E6748FEA9B);
+        let spall = DepthProfile::Spall { length_m: 0.533e-3, depth_m: 1e-4, ball_radius_m: 3.97e-3 };
+        let extended = DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![vec![0.0, 2e-6, -3e-5, 3e-6]; 3] };
+        let fault = |location, profile: &DepthProfile, position_rad| BearingFault { location, profile: profile.clone(), position_rad };
+        let sets = [
+            vec![fault(FaultLocation::Inner, &spall, 0.3)],
+            vec![fault(FaultLocation::Outer, &spall, -1.0)],
+            vec![fault(FaultLocation::Ball, &spall, 0.2)],
+            vec![fault(FaultLocation::Outer, &extended, 0.1)],
+            vec![fault(FaultLocation::Outer, &spall, 0.0), fault(FaultLocation::Inner, &extended, 2.0), fault(FaultLocation::Ball, &spall, 1.0)],
+        ];
+        let (mut loaded, mut faulted, mut total) = (0usize, 0usize, 0usize);
+        for (set, faults) in sets.into_iter().enumerate() {
+            for slipping in [false, true] {
+                let balls = 9;
+                let slip = if slipping { (0..balls).map(|_| (0..4000).map(|_| (next() - 0.5) * 0.06).collect()).collect() } else { vec![] };
+                let b = BearingElement {
+                    name: format!("set {set}"),
+                    shaft: (0, 1),
+                    pedestal: (2, 3),
+                    balls,
+                    ball_diameter_m: 7.94e-3,
+                    pitch_diameter_m: 39.04e-3,
+                    ratio: 7.94 / 39.04,
+                    clearance_m: 1e-6,
+                    law: ContactLaw::Hertz { k: 8e9, n: 1.5 },
+                    motion: ShaftMotion { mean_hz: 29.95, fluctuation: 0.01, fluctuation_hz: 0.7 },
+                    faults: faults.clone(),
+                    slip,
+                    memo: Default::default(),
+                };
+                for scale in [0.1, 10.0, 100.0] {
+                    for _ in 0..3000 {
+                        let t = next() * scale;
+                        let (dx, dy) = ((next() - 0.5) * 2e-5, -next() * 2.5e-5);
+                        let (tabled, untabled) = b.with_time_state(t, |ts| (b.contact_forces_tabled(ts, dx, dy), b.contact_forces_untabled(ts, dx, dy)));
+                        assert_eq!((tabled.0.to_bits(), tabled.1.to_bits()), (untabled.0.to_bits(), untabled.1.to_bits()), "{} (slip {slipping}) at t = {t}, ({dx}, {dy})", b.name);
+                        let depths = b.with_time_state(t, |ts| ts.balls.depth[..balls].iter().filter(|&&d| d != 0.0).count());
+                        total += 1;
+                        loaded += usize::from(tabled.1 != 0.0);
+                        faulted += usize::from(depths > 0);
+                    }
+                }
+            }
+        }
+        // The check means something only if balls carry load and meet faults.
+        assert!(loaded * 2 > total && faulted * 20 > total, "{loaded} loaded and {faulted} with a fault depth of {total}");
     }
 
     #[test]

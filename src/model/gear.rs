@@ -92,7 +92,7 @@ impl GearMeshElement {
     /// per-thread memo ([`super::memo`]).
     fn stiffness_at_time(&self, t: f64) -> f64 {
         thread_local! {
-            static LAST: Slots<f64> = const { [const { std::cell::Cell::new(None) }; 4] };
+            static LAST: Slots<f64> = const { Slots::new(0.0) };
         }
         at_time(&LAST, &self.memo, t, || self.stiffness.at(self.pinion_motion.angle(t)))
     }
@@ -181,7 +181,7 @@ impl ForceElement for OrderForce {
         // Through the per-thread memo ([`super::memo`]): the same components, added in the
         // same order, so the same forces to the bit.
         thread_local! {
-            static LAST: Slots<[(f64, f64); OrderForce::MEMO_TERMS]> = const { [const { std::cell::Cell::new(None) }; 4] };
+            static LAST: Slots<[(f64, f64); OrderForce::MEMO_TERMS]> = const { Slots::new([(0.0, 0.0); OrderForce::MEMO_TERMS]) };
         }
         let components = at_time(&LAST, &self.memo, t, || {
             let mut c = [(0.0, 0.0); Self::MEMO_TERMS];
