@@ -766,7 +766,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     }
     let started = std::time::Instant::now();
     if !quiet {
-        eprintln!("twinscope: calibrating the model ({}), then one trial per missing effect; about 20 s per round on 2 cores for a CWRU preset, about a minute for the MFS rig", compare::calibrate::calibration_parameters(&m).iter().map(|p| p.name()).collect::<Vec<_>>().join(", "));
+        eprintln!("twinscope: calibrating the model ({}), then one trial per missing effect; about 15–20 s per round on 2 cores for a CWRU preset, 45–55 s for the MFS rig", compare::calibrate::calibration_parameters(&m).iter().map(|p| p.name()).collect::<Vec<_>>().join(", "));
     }
     let show = !quiet && std::io::stderr().is_terminal();
     let progress = move |done: usize, expected: usize| {
