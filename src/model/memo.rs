@@ -45,7 +45,9 @@ impl<T: Copy> Slots<T> {
 /// `read` of the value at time `t` for the element `id`: of the remembered one when this
 /// thread last computed it for the same element at the same time (to the bit), else of the
 /// one `fill` writes now over the slot's old value (in place: a bearing's time state is about
-/// a kilobyte), which is then remembered. The value is lent, not copied.
+/// a kilobyte), which is then remembered. The value is lent, not copied: `fill` and `read`
+/// run while the slot is borrowed, so neither may use the same element type's memo (its
+/// `RefCell` would panic rather than hand out a slot being written).
 #[inline]
 pub(crate) fn with_at_time<T: 'static, R>(slots: &'static LocalKey<Slots<T>>, id: &MemoId, t: f64, fill: impl FnOnce(&mut T), read: impl FnOnce(&T) -> R) -> R {
     slots.with(|slots| {
