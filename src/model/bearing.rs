@@ -745,8 +745,9 @@ mod tests {
         // from its time state's table; one with more computes them per evaluation. Both must
         // give the same forces to the bit: checked on the same bearings through both paths,
         // at random times (long runs too) and displacements that load some balls and not
-        // others, with slip, for inner, outer, ball and rough extended faults (whose
-        // roughness may go negative, so no depth is skipped) and several at once.
+        // others, with slip, for inner, outer, ball and rough extended faults, several at
+        // once, and a spall of negative depth (a bump: its depth may not be skipped for an
+        // unloaded ball, the untabled path's other branch).
         let mut next = uniform(0x853C49E6748FEA9B);
         let spall = DepthProfile::Spall { length_m: 0.533e-3, depth_m: 1e-4, ball_radius_m: 3.97e-3 };
         let extended = DepthProfile::Extended { length_m: 15e-3, depth_m: 20e-6, ramp_m: 1e-3, roughness_m: vec![vec![0.0, 2e-6, -3e-5, 3e-6]; 3] };
@@ -757,6 +758,7 @@ mod tests {
             vec![fault(FaultLocation::Ball, &spall, 0.2)],
             vec![fault(FaultLocation::Outer, &extended, 0.1)],
             vec![fault(FaultLocation::Outer, &spall, 0.0), fault(FaultLocation::Inner, &extended, 2.0), fault(FaultLocation::Ball, &spall, 1.0)],
+            vec![fault(FaultLocation::Inner, &DepthProfile::Spall { length_m: 2e-3, depth_m: -3e-6, ball_radius_m: 3.97e-3 }, 0.5)],
         ];
         let (mut loaded, mut faulted, mut total) = (0usize, 0usize, 0usize);
         for (set, faults) in sets.into_iter().enumerate() {
