@@ -194,13 +194,9 @@ impl ForceElement for OrderForce {
     /// `−F(t) · q`, the potential of the prescribed force frozen at `t`, J.
     fn potential_energy(&self, t: f64, q: &[f64]) -> Option<f64> {
         let mut f = [0.0; 2];
-        let theta = self.motion.angle(t);
-        let speed_ratio = self.motion.speed_hz(t) / self.motion.mean_hz;
-        for &(order, amp, phase, quadratic) in &self.terms {
-            let a = if quadratic { amp * speed_ratio * speed_ratio } else { amp };
-            let (s, c) = (order * theta + phase).sin_cos();
-            f[0] += a * c;
-            f[1] += a * s;
+        for (x, y) in self.components(t) {
+            f[0] += x;
+            f[1] += y;
         }
         Some(-f[0] * q[self.dofs.0] - self.dofs.1.map_or(0.0, |y| f[1] * q[y]))
     }
