@@ -819,7 +819,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         println!(
             "{:>2}. {:<18} objective {:6.1} → {:6.1}{} ({:+4.0} %, explains {:4.0} % above the floor, switched off again {}){}  envelope NRMSE {:5.1} → {:5.1} %",
             i + 1,
-            t.effect.name(),
+            t.label(),
             t.objective_before,
             t.objective_after,
             t.objective_fitted.map_or(String::new(), |j| format!(" [{j:6.1}]")),

@@ -108,6 +108,31 @@ fn assert_found(k: EffectKind) {
     }
 }
 
+/// A load zone and the contact nonlinearity hidden together on the gear base: each acts only
+/// with the other (no fault for the load zone's impacts to modulate; every ball at the
+/// linearisation's preload without a load), so neither's trial alone explains anything. The
+/// case is session 61's false claim (its fresh random gear pairs, seed 10260's second pair, at
+/// 0.4 dB: a casing mode chosen), which the contact nonlinearity's trial with its load zone
+/// (docs/loop-notebook.md "Session 62") finds in one round.
+#[test]
+fn a_load_zone_and_contact_nonlinearity_hidden_together_are_found_together() {
+    use EffectKind::{LoadZone, NonlinearContact};
+    let base = model::preset(GEAR).unwrap();
+    let r = hidden::run_multi_case(&base, &[NonlinearContact, LoadZone], 10261, RECORD_S, 4, &LoopOptions::default()).unwrap();
+    let rounds: Vec<String> = r.history.iter().map(|h| format!("{:.2} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.change_with_values("nothing"))).collect();
+    eprintln!("load zone + contact nonlinearity on {GEAR}, seed 10261: true {:?}, SNR {:.1} dB; {}; {:.0} s", r.true_parameters, r.snr_db, rounds.join("; "), r.seconds);
+    assert!(r.false_claims.is_empty(), "false claims {:?}: {}", r.false_claims, rounds.join("; "));
+    assert!(r.found_all && r.ended_clean, "{}", rounds.join("; "));
+    assert_eq!((r.history[0].applied, r.history[0].applied_with), (Some(NonlinearContact), Some(LoadZone)), "both in the first round");
+    let true_load = r.true_parameters.iter().find(|p| p.0 == twinscope::compare::Param::RadialLoadN).unwrap().1;
+    let fitted = r.final_values.iter().find(|p| p.0 == twinscope::compare::Param::RadialLoadN).expect("the load zone's load among the final values").1;
+    assert!((fitted / true_load - 1.0).abs() < 0.15, "load {fitted:.1} N for {true_load:.1} N");
+    // At 0.4 dB the envelope is not halved; the loop ends at the true machine's level.
+    let last = r.history.last().unwrap().envelope_nrmse;
+    let truth_worst = r.oracle.truth.iter().map(|t| t.1).fold(f64::NEG_INFINITY, f64::max);
+    assert!(last <= truth_worst, "envelope NRMSE {last:.2} % above the true machine's worst {truth_worst:.2} %");
+}
+
 fn assert_control(preset: &str, seed: u64) {
     let r = run(preset, None, seed, DRAWN);
     eprintln!("control on {preset}, seed {seed}: SNR {:.1} dB; objective / floor {:.2}; {}", r.snr_db, r.calibrated_objective() / r.floor_objective, r.verdict);

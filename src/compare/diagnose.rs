@@ -63,8 +63,9 @@ pub struct EffectTrial {
     pub pinned: Option<(f64, f64)>,
     /// One sentence for the user.
     pub summary: String,
-    /// The trial's fitted machine evaluated once more with the effect switched off, everything
-    /// else as the trial fitted it (an ablation). None where it could not be evaluated.
+    /// The trial's fitted machine evaluated once more with the effect switched off (and its
+    /// [`EffectTrial::with_effect`]), everything else as the trial fitted it (an ablation).
+    /// None where it could not be evaluated.
     #[serde(default)]
     pub objective_without_effect: Option<f64>,
     /// What switching the effect off again costs, as a share of the error above the floor:
@@ -93,6 +94,28 @@ pub struct EffectTrial {
     /// plain search makes.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fine_cell_won: Vec<Param>,
+    /// The effect the trial switched on with its own, because its own acts through it and the
+    /// model lacked it ([`companion`]: a contact nonlinearity with a load zone); the trial
+    /// fitted that effect's parameters too, and applying it switches both on. None for a
+    /// trial of one effect.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub with_effect: Option<EffectKind>,
+}
+
+impl EffectTrial {
+    /// The trial's name for the user: its effect, and the [`EffectTrial::with_effect`] it
+    /// switched on with it (`nonlinear_contact with load_zone`).
+    pub fn label(&self) -> String {
+        trial_label(self.effect, self.with_effect)
+    }
+}
+
+/// `k`'s name, with ` with c` for an effect `c` switched on with it ([`EffectTrial::label`]).
+pub fn trial_label(k: EffectKind, with_effect: Option<EffectKind>) -> String {
+    match with_effect {
+        Some(c) => format!("{} with {}", k.name(), c.name()),
+        None => k.name().to_string(),
+    }
 }
 
 /// What the CLI and the app print when a diagnosis's floor is 0: nothing in the model is
@@ -386,6 +409,28 @@ fn evidence(k: EffectKind, map: &ResidualMap, mode_hz: Option<f64>) -> (String, 
     (text, share)
 }
 
+/// The evidence of a trial of `k` that switched `with_effect` on with it ([`evidence`]), its
+/// fitted machine `fm` placing a casing mode: a trial that brings the effect its own acts
+/// through shows that effect's signature, the contact nonlinearity having none of its own in
+/// the residual map (session 62: a tie on evidence went to a casing mode whose band carried 2 %
+/// of the PSD error, where the load zone's lines carried 64 % of the envelope's).
+fn trial_evidence(k: EffectKind, with_effect: Option<EffectKind>, map: &ResidualMap, fm: &Machine) -> (String, f64) {
+    evidence(with_effect.unwrap_or(k), map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None })
+}
+
+/// A trial's fitted machine `fm` with what the trial switched on switched off again, its
+/// effect and the one it brought ([`EffectTrial::with_effect`]), everything else as fitted:
+/// the ablation behind [`EffectTrial::effect_explained`]. Switching off the contact
+/// nonlinearity alone would leave its load zone doing the work (session 62, bearing pair
+/// 10300: 12 % where the pair explained 101 %).
+fn switched_off(mut fm: Machine, t: &EffectTrial) -> Machine {
+    fm.effects.disable(t.effect);
+    if let Some(c) = t.with_effect {
+        fm.effects.disable(c);
+    }
+    fm
+}
+
 /// Calibrated parameters every trial re-fits locally after fitting its effect (see
 /// [`fit_trial`]): the noise level absorbs whatever energy the model lacks.
 const TRIAL_REFINE: [Param; 1] = [Param::NoiseSnrDb];
@@ -493,29 +538,29 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
         // The best trial is still named when it would pass every other test. On the stored
         // runs such a trial was the missed hidden effect about half the time (README "A
         // second start for every trial"), hence the wording.
-        let lead = if names_a_near_floor_lead(first, j0, floor, scatter, opts) { format!("; best trial: {} explains {:.0} % of the error above the floor, beyond the seed scatter, but this near the floor a misfit of the base model can do as much: not a finding", first.effect.name(), first.explained * 100.0) } else { String::new() };
+        let lead = if names_a_near_floor_lead(first, j0, floor, scatter, opts) { format!("; best trial: {} explains {:.0} % of the error above the floor, beyond the seed scatter, but this near the floor a misfit of the base model can do as much: not a finding", first.label(), first.explained * 100.0) } else { String::new() };
         Some(format!("the calibrated model is within its own scatter: objective {j0:.2} against a floor of {floor:.2} (the model against realisations of itself){lead}"))
     } else if first.outside_band {
-        Some(format!("best trial: {} puts its feature at the edge of the band searched{}, outside what the data show", first.effect.name(), first.parameter.map_or(String::new(), |(p, v)| format!(" ({} = {v:.4e})", p.name()))))
+        Some(format!("best trial: {} puts its feature at the edge of the band searched{}, outside what the data show", first.label(), first.parameter.map_or(String::new(), |(p, v)| format!(" ({} = {v:.4e})", p.name()))))
     } else if first.pinned.is_some() {
-        Some(format!("best trial: {}{}", first.effect.name(), pinned_clause(first)))
+        Some(format!("best trial: {}{}", first.label(), pinned_clause(first)))
     } else if first.explained < opts.significance {
         // A trial that is no finding (pinned, or its feature at the band's edge) and did better
         // is named: the error it took up is real, its cause is not that effect within its range.
         let no_finding_better = trials[n_findings..].iter().filter(|t| t.objective_after < first.objective_after && t.explained >= opts.significance).min_by(|a, b| a.objective_after.total_cmp(&b.objective_after));
         Some(format!(
             "best trial: {} explains {:.0} % of the error above the floor, below the {:.0} % threshold{}",
-            first.effect.name(),
+            first.label(),
             first.explained * 100.0,
             opts.significance * 100.0,
             no_finding_better.map_or(String::new(), |t| format!("; {}{}", t.effect.name(), no_finding_clause(t)))
         ))
     } else if improvement < tie {
-        Some(format!("best trial: {} improves the objective by {improvement:.2}, within the seed scatter (±{tie:.2})", first.effect.name()))
+        Some(format!("best trial: {} improves the objective by {improvement:.2}, within the seed scatter (±{tie:.2})", first.label()))
     } else if effect_did_not_work(first, opts) {
         Some(format!(
             "best trial: {} explains {:.0} % of the error above the floor, but switching the effect off again in its fit costs only {}: the trial's re-fit did the work",
-            first.effect.name(),
+            first.label(),
             first.explained * 100.0,
             first.effect_explained.map_or("an unknown share".to_string(), |e| format!("{:.0} %", e * 100.0))
         ))
@@ -535,7 +580,7 @@ pub fn decide(mut trials: Vec<EffectTrial>, j0: f64, floor: f64, scatter: f64, o
             } else {
                 String::new()
             };
-            let v = format!("{}: {} — explains {:.0} % of the error above the floor{tie_note}{near_note}", first.effect.name(), first.summary, first.explained * 100.0);
+            let v = format!("{}: {} — explains {:.0} % of the error above the floor{tie_note}{near_note}", first.label(), first.summary, first.explained * 100.0);
             let k = first.effect;
             (trials, Some(k), v)
         }
@@ -875,30 +920,65 @@ pub fn calibration_evaluations(m: &Machine, opts: &LoopOptions) -> usize {
 /// trial's fit.
 pub fn scanned_start_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -> usize {
     let (t, scan) = uncalibrated_start_of(m, k);
-    fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &scan, opts)
+    fit_trial_scanning_evaluations(&t, &trial_parameters(k, m), &TRIAL_REFINE, &scan, opts)
 }
 
-/// A trial's start from the uncalibrated values: `m` with effect `k` on (a path modulation
-/// at the shaft rate), and the parameter scanned on a grid first (the effect's main one).
-fn uncalibrated_start_of(m: &Machine, k: EffectKind) -> (Machine, Vec<Param>) {
+/// The effect a trial of `k` on `m` (without `k`) switches on with `k`: the one `k` acts
+/// through ([`EffectKind::acts_through`]), when `m` lacks it and it applies to `m`. A contact
+/// nonlinearity tried alone on a model without a load zone changes nothing (every ball at the
+/// preload its linearisation is taken at); where both are missing, only both together show
+/// what either does (session 62: a load zone and a contact nonlinearity hidden together were
+/// answered by a casing mode, each trial alone explaining nothing). Whatever the candidate
+/// list, the trial of `k` brings its companion.
+pub fn companion(k: EffectKind, m: &Machine) -> Option<EffectKind> {
+    k.acts_through().filter(|c| !m.effects.is_on(*c) && Effects::applicable(*c, m))
+}
+
+/// The parameters a trial of `k` on `m` (without `k`) fits: `k`'s ([`Param::of_effect`]),
+/// then its [`companion`]'s.
+pub fn trial_parameters(k: EffectKind, m: &Machine) -> Vec<Param> {
+    let mut ps = Param::of_effect(k);
+    if let Some(c) = companion(k, m) {
+        ps.extend(Param::of_effect(c).into_iter().filter(|p| !ps.contains(p)).collect::<Vec<_>>());
+    }
+    ps
+}
+
+/// The main parameter of a trial of `k` on `m`: `k`'s, or, when `k` has none (a switch), its
+/// [`companion`]'s.
+fn trial_main_parameter(k: EffectKind, m: &Machine) -> Option<Param> {
+    Param::main_of_effect(k).or_else(|| companion(k, m).and_then(Param::main_of_effect))
+}
+
+/// `m` (without `k`) with effect `k` switched on for its trial: with its [`companion`], and a
+/// path modulation at the shaft rate.
+fn switched_on(m: &Machine, k: EffectKind) -> Machine {
     let mut t = m.clone();
+    if let Some(c) = companion(k, m) {
+        t.effects.enable(c);
+    }
     t.effects.enable(k);
     if k == EffectKind::PathModulation {
         set_path_modulation_to_shaft_rate(&mut t);
     }
-    (t, Param::main_of_effect(k).into_iter().collect())
+    t
+}
+
+/// A trial's start from the uncalibrated values: `m` with effect `k` on ([`switched_on`]),
+/// and the parameter scanned on a grid first (the trial's main one).
+fn uncalibrated_start_of(m: &Machine, k: EffectKind) -> (Machine, Vec<Param>) {
+    (switched_on(m, k), trial_main_parameter(k, m).into_iter().collect())
 }
 
 /// The model evaluations of the plain stage-1 trial of effect `k` on machine `m` (without
 /// it): from the calibrated model, or, for a trial that re-does the calibration with its
 /// effect ([`recalibrates`]), from the uncalibrated values.
 pub fn plain_trial_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -> usize {
-    let mut t = m.clone();
-    t.effects.enable(k);
+    let t = switched_on(m, k);
     if recalibrates(k, opts) {
-        fit_evaluations(&t, &recalibration_parameters(k, &t, opts), &[], 1, opts)
+        fit_evaluations(&t, &recalibration_parameters(k, m, opts), &[], 1, opts)
     } else {
-        fit_trial_scanning_evaluations(&t, &Param::of_effect(k), &TRIAL_REFINE, &plain_trial_scan(k, opts), opts)
+        fit_trial_scanning_evaluations(&t, &trial_parameters(k, m), &TRIAL_REFINE, &plain_trial_scan(k, opts), opts)
     }
 }
 
@@ -969,7 +1049,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     // its main parameter scanned on a grid.
     let unbent_start = |k: EffectKind| -> (Machine, Vec<Param>, Vec<Param>) {
         let (t, scan) = uncalibrated_start_of(m, k);
-        let ps = recalibration_parameters(k, &t, opts);
+        let ps = recalibration_parameters(k, m, opts);
         (t, ps, scan)
     };
     // The second start of every plain trial: unbending's (with a calibration sweep), or the
@@ -1010,20 +1090,22 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
         let env = f.envelope_nrmse_after;
         let after = |d: &str| f.domains.iter().find(|x| x.0 == d).map(|x| x.2).unwrap_or(f64::NAN);
         let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after(&d.domain))).collect();
-        let parameter = Param::main_of_effect(k).and_then(|p| p.get(fm).map(|v| (p, v)));
-        let extra: Vec<(Param, f64)> = Param::of_effect(k).iter().chain(released.iter()).filter(|p| Some(**p) != Param::main_of_effect(k)).filter_map(|p| p.get(fm).map(|v| (*p, v))).collect();
+        let main = trial_main_parameter(k, &cal_m);
+        let parameter = main.and_then(|p| p.get(fm).map(|v| (p, v)));
+        let extra: Vec<(Param, f64)> = trial_parameters(k, &cal_m).iter().chain(released.iter()).filter(|p| Some(**p) != main).filter_map(|p| p.get(fm).map(|v| (*p, v))).collect();
         let (outside_band, pinned) = parameter.map_or((false, None), |(p, v)| range_edge(p, v, fm));
         let (reduction, explained) = shares(j0, j, floor);
-        let (ev, ev_share) = evidence(k, &map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None });
-        let summary = trial_summary(k, &ev, parameter, &extra, (env0, env), (j0, j));
-        EffectTrial { effect: k, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None, from_uncalibrated: false, fine_cell_won: f.fine_cell_won.clone() }
+        let with_effect = companion(k, &cal_m);
+        let (ev, ev_share) = trial_evidence(k, with_effect, &map, fm);
+        let summary = trial_summary(&trial_label(k, with_effect), &ev, parameter, &extra, (env0, env), (j0, j));
+        EffectTrial { effect: k, with_effect, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None, from_uncalibrated: false, fine_cell_won: f.fine_cell_won.clone() }
     };
     // The plain trial's fit of `k` from `t` (the effect's parameters, then the noise level
     // refined), each of `scan` first scanned on a grid; `reported` are the parameters besides
     // the effect's that the trial carries (see `from_uncalibrated_scanned`).
     let plain_fit = |k: EffectKind, t: Machine, scan: &[Param], reported: &[Param]| -> TrialOutcome {
         t.validate().map_err(|e| e.to_string())?;
-        let (fm, f) = fit_trial_scanning(&t, measured, &Param::of_effect(k), &TRIAL_REFINE, scan, opts, progress).map_err(|e| e.to_string())?;
+        let (fm, f) = fit_trial_scanning(&t, measured, &trial_parameters(k, m), &TRIAL_REFINE, scan, opts, progress).map_err(|e| e.to_string())?;
         Ok((make_trial(k, &fm, &f, reported), fm))
     };
     // The second start of `uncalibrated_start` (and `uncalibrated_start_top`): from the
@@ -1046,18 +1128,11 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 let (t, ps, scan) = unbent_start(k);
                 t.validate().map_err(|e| e.to_string())?;
                 let (fm, f) = fit_scanning(&t, measured, &ps, &scan, 1, fit_opts, progress).map_err(|e| e.to_string())?;
-                let released: Vec<Param> = ps.into_iter().filter(|p| !Param::of_effect(k).contains(p)).collect();
+                let released: Vec<Param> = ps.into_iter().filter(|p| !trial_parameters(k, m).contains(p)).collect();
                 Ok((EffectTrial { from_uncalibrated: true, ..make_trial(k, &fm, &f, &released) }, fm))
             };
             // From the calibrated model, the effect fitted and the noise level re-fitted.
-            let from_calibrated = || -> TrialOutcome {
-                let mut t = cal_m.clone();
-                t.effects.enable(k);
-                if k == EffectKind::PathModulation {
-                    set_path_modulation_to_shaft_rate(&mut t);
-                }
-                plain_fit(k, t, &plain_trial_scan(k, opts), &TRIAL_REFINE)
-            };
+            let from_calibrated = || -> TrialOutcome { plain_fit(k, switched_on(&cal_m, k), &plain_trial_scan(k, opts), &TRIAL_REFINE) };
             // The plain trial: a recalibrating one from the uncalibrated values, any other from
             // the calibrated model; taken from an earlier search of this machine when it made
             // it (an unbent search after a plain one, see `diagnose_with`).
@@ -1116,7 +1191,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     // With `refit_effect_in_stage2` the re-fit releases the effect's own parameters too, after
     // the calibrated ones (a second start carries the same effect, so the same count).
     let stage2_refine = |k: EffectKind| -> Vec<Param> {
-        let effect = if opts.refit_effect_in_stage2 { Param::of_effect(k) } else { Vec::new() };
+        let effect = if opts.refit_effect_in_stage2 { trial_parameters(k, m) } else { Vec::new() };
         released.iter().copied().chain(effect.into_iter().filter(|p| !released.contains(p))).collect()
     };
     progress.expect(stage1.iter().map(|(t, fm)| fit_trial_evaluations(fm, &[], &stage2_refine(t.effect), opts) - fit_trial_evaluations(fm, &[], &released, opts)).sum());
@@ -1173,15 +1248,14 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
         .into_par_iter()
         .chain(rest)
         .map(|(mut t, fm)| {
-            let mut judged = if held_out.is_some() { reseeded(&fm, HELD_OUT_SALT) } else { fm };
+            let judged = if held_out.is_some() { reseeded(&fm, HELD_OUT_SALT) } else { fm };
             if let Some(ch) = &held_out {
                 let ct = evaluate(&judged, measured, opts);
                 progress.tick();
                 let (ct, _) = ct.map_err(|e| (t.effect, format!("its fitted model could not be evaluated on the held-out realisations: {e}")))?;
                 rejudge(&mut t, ch, &ct, floor, &opts.weights);
             }
-            judged.effects.disable(t.effect);
-            let off = judged;
+            let off = switched_off(judged, &t);
             t.objective_without_effect = evaluate(&off, measured, opts).ok().map(|(c, _)| objective(&c, &opts.weights));
             progress.tick();
             t.effect_explained = t.objective_without_effect.filter(|_| excess > 0.0).map(|j| (j - t.objective_after) / excess);
@@ -1251,10 +1325,10 @@ fn shares(j0: f64, j: f64, floor: f64) -> (f64, f64) {
 
 /// The sentence of a trial: its evidence, the fitted values, and envelope NRMSE and objective
 /// before → after.
-fn trial_summary(k: EffectKind, evidence: &str, parameter: Option<(Param, f64)>, extra: &[(Param, f64)], env: (f64, f64), j: (f64, f64)) -> String {
+fn trial_summary(name: &str, evidence: &str, parameter: Option<(Param, f64)>, extra: &[(Param, f64)], env: (f64, f64), j: (f64, f64)) -> String {
     let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
     let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
-    format!("{evidence}; adding {}{pv} changes envelope NRMSE from {:.1} % to {:.1} % (objective {:.1} → {:.1})", k.name(), env.0, env.1, j.0, j.1)
+    format!("{evidence}; adding {}{pv} changes envelope NRMSE from {:.1} % to {:.1} % (objective {:.1} → {:.1})", name, env.0, env.1, j.0, j.1)
 }
 
 /// Re-states a fitted trial on held-out realisations: `before` is the calibrated model's
@@ -1272,7 +1346,7 @@ fn rejudge(t: &mut EffectTrial, before: &Comparison, after: &Comparison, floor: 
     t.envelope_nrmse_after = env;
     t.domains = before.domains.iter().map(|d| (d.domain.clone(), d.metrics.nrmse_percent, after.domain(&d.domain).map_or(f64::NAN, |x| x.metrics.nrmse_percent))).collect();
     (t.reduction, t.explained) = shares(j0, j, floor);
-    t.summary = trial_summary(t.effect, &t.evidence, t.parameter, &t.extra_parameters, (env0, env), (j0, j));
+    t.summary = trial_summary(&t.label(), &t.evidence, t.parameter, &t.extra_parameters, (env0, env), (j0, j));
 }
 
 /// Whether the trial of `k` re-does the calibration with the effect on instead of starting
@@ -1289,10 +1363,12 @@ pub fn recalibrates(k: EffectKind, opts: &LoopOptions) -> bool {
     k == EffectKind::CasingModes || (k == EffectKind::SensorResponse && opts.recalibrate_roll_off)
 }
 
-/// The parameters a re-calibrating trial fits, in order: the effect's, then the calibration's.
+/// The parameters a re-calibrating trial of `k` on `m` (without `k`) fits, in order: the
+/// trial's ([`trial_parameters`]), then the calibration's of the machine with the trial's
+/// effects on.
 pub fn recalibration_parameters(k: EffectKind, m: &Machine, opts: &LoopOptions) -> Vec<Param> {
-    let mut ps = Param::of_effect(k);
-    for p in calibration_parameters_for(m, opts) {
+    let mut ps = trial_parameters(k, m);
+    for p in calibration_parameters_for(&switched_on(m, k), opts) {
         if !ps.contains(&p) {
             ps.push(p);
         }
@@ -1306,6 +1382,9 @@ pub fn recalibration_parameters(k: EffectKind, m: &Machine, opts: &LoopOptions) 
 /// `m` should be the calibrated machine the trial was run on (the first value [`diagnose`]
 /// returns).
 pub fn apply_trial(m: &mut Machine, t: &EffectTrial) {
+    if let Some(c) = t.with_effect {
+        m.effects.enable(c);
+    }
     m.effects.enable(t.effect);
     for (p, v) in t.parameter.iter().chain(t.extra_parameters.iter()) {
         p.set(m, *v);
@@ -1364,13 +1443,17 @@ pub struct Round {
     pub ranking_effect_explained: Vec<f64>,
     /// The effect applied at the end of the round.
     pub applied: Option<EffectKind>,
+    /// The effect switched on with `applied`, which it acts through
+    /// ([`EffectTrial::with_effect`]: a load zone with a contact nonlinearity).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub applied_with: Option<EffectKind>,
     /// The effect taken out at the end of the round, when the loop replaced an applied effect
     /// (see [`run_loop`]); `applied` is then the one put in its place. Both are the same effect
     /// when the loop re-fitted it from the uncalibrated values instead ([`Round::refitted`]).
     #[serde(default)]
     pub removed: Option<EffectKind>,
     /// The applied effect's parameters as they went into the model (see
-    /// [`Param::of_effect`]): the trial's fit, or for a replacement the calibration's fit. The
+    /// [`Param::of_effect`]; then those of `applied_with`): the trial's fit, or for a replacement the calibration's fit. The
     /// rounds after re-fit them; the final values are in the last round's calibration.
     #[serde(default)]
     pub applied_values: Vec<(Param, f64)>,
@@ -1445,7 +1528,7 @@ impl Round {
         match (self.applied, self.removed) {
             (Some(b), Some(a)) if a == b => format!("{} {REFITTED}", b.name()),
             (Some(b), Some(a)) => format!("{} in place of {}", b.name(), a.name()),
-            (Some(b), None) => b.name().to_string(),
+            (Some(b), None) => trial_label(b, self.applied_with),
             _ => none.to_string(),
         }
     }
@@ -1455,7 +1538,8 @@ impl Round {
     pub fn change_with_values(&self, none: &str) -> String {
         let Some(b) = self.applied else { return none.to_string() };
         let values = effect_values_text(&self.applied_values);
-        let added = if values.is_empty() { b.name().to_string() } else { format!("{} ({values})", b.name()) };
+        let name = trial_label(b, self.applied_with);
+        let added = if values.is_empty() { name } else { format!("{name} ({values})") };
         match self.removed {
             Some(a) if a == b => format!("{added} {REFITTED}"),
             Some(a) => format!("{added} in place of {}", a.name()),
@@ -1467,6 +1551,12 @@ impl Round {
 /// The values of an effect's parameters in a machine, in [`Param::of_effect`] order.
 pub fn effect_values(m: &Machine, k: EffectKind) -> Vec<(Param, f64)> {
     Param::of_effect(k).into_iter().filter_map(|p| p.get(m).map(|v| (p, v))).collect()
+}
+
+/// [`effect_values`] of an applied effect `k`, then of the effect applied with it
+/// ([`Round::applied_with`]).
+pub fn applied_values(m: &Machine, k: EffectKind, with_effect: Option<EffectKind>) -> Vec<(Param, f64)> {
+    std::iter::once(k).chain(with_effect).flat_map(|e| effect_values(m, e)).collect()
 }
 
 /// `name = value, ...` with the last part of each parameter's path, 4 significant digits.
@@ -1530,7 +1620,8 @@ pub fn replacement_candidates(history: &[Round], current: &Machine, opts: &LoopO
     let mut pairs: Vec<(f64, EffectKind, EffectKind)> = Vec::new();
     for r in history {
         let Some(a) = r.applied else { continue };
-        if r.refitted() {
+        // An effect applied with the one it acts through is not swapped alone.
+        if r.refitted() || r.applied_with.is_some() {
             continue;
         }
         if !current.effects.is_on(a) {
@@ -1606,6 +1697,9 @@ pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
         }
         if let Some(k) = r.applied {
             on.push(k);
+        }
+        if let Some(c) = r.applied_with {
+            on.push(c);
         }
     }
     on
@@ -1815,12 +1909,17 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
         if let Some(k) = d.best {
             let mut next = cal.clone();
             match d.trials.iter().find(|t| t.effect == k) {
-                Some(t) => apply_trial(&mut next, t),
+                Some(t) => {
+                    apply_trial(&mut next, t);
+                    round.applied_with = t.with_effect;
+                }
                 None => next.effects.enable(k),
             }
-            round.applied_values = effect_values(&next, k);
-            if !opts.refit_effects.contains(&k) {
-                opts.refit_effects.push(k);
+            round.applied_values = applied_values(&next, k, round.applied_with);
+            for e in std::iter::once(k).chain(round.applied_with) {
+                if !opts.refit_effects.contains(&e) {
+                    opts.refit_effects.push(e);
+                }
             }
             history.push(round);
             current = next;
@@ -1920,6 +2019,7 @@ mod tests {
             objective_fitted: None,
             from_uncalibrated: false,
             fine_cell_won: vec![],
+            with_effect: None,
         }
     }
 
@@ -2293,6 +2393,95 @@ mod tests {
         m.validate().unwrap();
     }
 
+    /// The MFS gear base without a load zone and without the Hertzian law.
+    fn gear_base_without_load_or_nonlinearity() -> Machine {
+        let mut m = crate::model::preset("mfs_healthy").unwrap();
+        m.effects.disable(EffectKind::LoadZone);
+        m.effects.disable(EffectKind::NonlinearContact);
+        m
+    }
+
+    #[test]
+    fn a_contact_nonlinearity_is_tried_with_the_load_zone_it_acts_through() {
+        use EffectKind::*;
+        let m = gear_base_without_load_or_nonlinearity();
+        assert_eq!(companion(NonlinearContact, &m), Some(LoadZone));
+        assert_eq!(trial_parameters(NonlinearContact, &m), vec![Param::RadialLoadN, Param::RadialClearanceM]);
+        assert_eq!(trial_main_parameter(NonlinearContact, &m), Some(Param::RadialLoadN));
+        let t = switched_on(&m, NonlinearContact);
+        assert!(t.effects.is_on(NonlinearContact) && t.effects.is_on(LoadZone));
+        // The second start scans the load, and a re-calibrating start fits it first.
+        assert_eq!(uncalibrated_start_of(&m, NonlinearContact).1, vec![Param::RadialLoadN]);
+        assert_eq!(recalibration_parameters(NonlinearContact, &m, &LoopOptions::default())[..2], [Param::RadialLoadN, Param::RadialClearanceM]);
+        // The load zone acts without the Hertzian law (on a fault's impacts): tried alone.
+        assert_eq!(companion(LoadZone, &m), None);
+        assert_eq!(trial_parameters(LoadZone, &m), Param::of_effect(LoadZone));
+        // With a load zone on, the nonlinearity is tried alone, as before.
+        let mut loaded = m.clone();
+        loaded.effects.enable(LoadZone);
+        assert_eq!(companion(NonlinearContact, &loaded), None);
+        assert!(trial_parameters(NonlinearContact, &loaded).is_empty());
+        assert_eq!(trial_main_parameter(NonlinearContact, &loaded), None);
+        assert!(!switched_on(&loaded, NonlinearContact).effects.is_on(Slip));
+        // A bearing-less machine has no load zone to bring.
+        let mut bare = m.clone();
+        bare.bearings.clear();
+        assert_eq!(companion(NonlinearContact, &bare), None);
+    }
+
+    /// The premise of [`companion`]: without a load zone the Hertzian law changes the
+    /// response by next to nothing (every ball at the preload its linearisation is taken at);
+    /// with one, it changes the bearing's stiffness and so the response.
+    #[test]
+    fn the_hertzian_law_matters_only_under_a_load_zone() {
+        use EffectKind::*;
+        let rel_change = |mut m: Machine| {
+            m.duration_s = 0.25;
+            let linear = crate::model::simulate(&m).unwrap();
+            m.effects.enable(NonlinearContact);
+            let hertz = crate::model::simulate(&m).unwrap();
+            let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+            let diff: Vec<f64> = linear.samples.iter().zip(&hertz.samples).map(|(a, b)| a - b).collect();
+            rms(&diff) / rms(&linear.samples)
+        };
+        let m = gear_base_without_load_or_nonlinearity();
+        let unloaded = rel_change(m.clone());
+        let mut loaded = m;
+        loaded.effects.enable(LoadZone);
+        Param::RadialLoadN.set(&mut loaded, 77.0);
+        let loaded = rel_change(loaded);
+        // Seen: 6.1e-6 and 0.73.
+        assert!(unloaded < 1e-4 && loaded > 0.1, "relative change of the response by the Hertzian law: {unloaded:.2e} without a load zone, {loaded:.2e} under 77 N");
+    }
+
+    #[test]
+    fn a_trial_with_its_companion_is_applied_and_recorded_with_it() {
+        use EffectKind::*;
+        let mut m = gear_base_without_load_or_nonlinearity();
+        let t = EffectTrial { with_effect: Some(LoadZone), ..fitted(NonlinearContact, Some((Param::RadialLoadN, 80.0)), vec![(Param::RadialClearanceM, 4e-6)]) };
+        assert_eq!(t.label(), "nonlinear_contact with load_zone");
+        apply_trial(&mut m, &t);
+        assert!(m.effects.is_on(NonlinearContact) && m.effects.is_on(LoadZone));
+        assert_eq!(Param::RadialLoadN.get(&m), Some(80.0));
+        assert_eq!(applied_values(&m, NonlinearContact, t.with_effect), vec![(Param::RadialLoadN, 80.0), (Param::RadialClearanceM, 4e-6)]);
+        let mut r1 = round(1, vec![(NonlinearContact, 0.6), (CasingModes, 0.5)], Some(NonlinearContact), None);
+        r1.applied_with = Some(LoadZone);
+        r1.applied_values = applied_values(&m, NonlinearContact, r1.applied_with);
+        assert_eq!(r1.change("-"), "nonlinear_contact with load_zone");
+        assert_eq!(r1.change_with_values("-"), "nonlinear_contact with load_zone (radial_load_n = 8.000e1, radial_clearance_m = 4.000e-6)");
+        let h = vec![r1.clone(), round(2, vec![], None, None)];
+        assert_eq!(applied_effects(&h), vec![NonlinearContact, LoadZone]);
+        // Its ablation switches both off again.
+        let off = switched_off(m.clone(), &t);
+        assert!(!off.effects.is_on(NonlinearContact) && !off.effects.is_on(LoadZone));
+        let alone = switched_off(m.clone(), &EffectTrial { with_effect: None, ..t.clone() });
+        assert!(!alone.effects.is_on(NonlinearContact) && alone.effects.is_on(LoadZone));
+        // The pair is not swapped for a runner-up one effect at a time.
+        assert!(replacement_candidates(&h, &m, &LoopOptions::default()).is_empty());
+        r1.applied_with = None;
+        assert_eq!(replacement_candidates(&[r1, round(2, vec![], None, None)], &m, &LoopOptions::default()), vec![(NonlinearContact, CasingModes)]);
+    }
+
     #[test]
     fn apply_trial_sets_path_modulation_to_the_shaft_rate() {
         let mut m = crate::model::preset("cwru_6205_inner").unwrap();
@@ -2564,6 +2753,28 @@ mod tests {
         let (text, share) = evidence(EffectKind::CasingModes, &map, Some(3200.0));
         assert!(text.contains("3000–3375 Hz (-19.4 dB") && text.contains("(3200 Hz)"), "{text}");
         assert_eq!(share, 56.0);
+    }
+
+    #[test]
+    fn a_trial_with_a_companion_shows_the_companions_evidence() {
+        use EffectKind::*;
+        let line = crate::compare::residual::ResidualItem {
+            kind: "envelope_line".into(),
+            family: "FTF ± shaft".into(),
+            label: "6xFTF+1xshaft".into(),
+            frequency_hz: 49.3,
+            share_percent: 64.0,
+            measured: 1.0,
+            simulated: 0.5,
+            note: "weaker in the model".into(),
+        };
+        let map = ResidualMap { items: vec![line], envelope_families: vec![("FTF ± shaft".into(), 64.0)] };
+        let m = gear_base_without_load_or_nonlinearity();
+        // The contact nonlinearity alone has no signature; with its load zone, the load zone's.
+        assert_eq!(trial_evidence(NonlinearContact, None, &map, &m).1, 0.0);
+        let (text, share) = trial_evidence(NonlinearContact, Some(LoadZone), &map, &m);
+        assert_eq!((text.as_str(), share), (evidence(LoadZone, &map, None).0.as_str(), 64.0));
+        assert!(text.starts_with("6xFTF+1xshaft (49.3 Hz): weaker in the model"), "{text}");
     }
 
     #[test]

@@ -488,12 +488,14 @@ pub fn run_multi_case_set(base: &Machine, hidden: &[EffectKind], seed: u64, dura
 /// round's calibration (`calibrated`) fitted them; an effect applied by the last round itself
 /// was not calibrated again, so it keeps the values it was applied with.
 fn final_effect_values(history: &[Round], calibrated: &[(Param, f64)]) -> Vec<(Param, f64)> {
-    let last_applied = history.last().and_then(|r| r.applied);
+    let last_applied: Vec<EffectKind> = history.last().map(|r| r.applied.into_iter().chain(r.applied_with).collect()).unwrap_or_default();
     super::diagnose::applied_effects(history)
         .into_iter()
         .flat_map(|k| {
-            let applied_with = history.iter().rev().find(|r| r.applied == Some(k)).map(|r| r.applied_values.clone()).unwrap_or_default();
-            if last_applied == Some(k) {
+            // A round that applied `k` with another effect holds both effects' values.
+            let of_k = Param::of_effect(k);
+            let applied_with: Vec<(Param, f64)> = history.iter().rev().find(|r| r.applied == Some(k) || r.applied_with == Some(k)).map(|r| r.applied_values.iter().filter(|(p, _)| of_k.contains(p)).copied().collect()).unwrap_or_default();
+            if last_applied.contains(&k) {
                 return applied_with;
             }
             applied_with.into_iter().map(|(p, v)| (p, calibrated.iter().find(|c| c.0 == p).map_or(v, |c| c.1))).collect()

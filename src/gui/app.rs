@@ -419,7 +419,8 @@ impl Workbench {
         let n = model.history.len();
         if let Some(last) = model.history.last_mut() {
             last.applied = Some(effect);
-            last.applied_values = crate::compare::diagnose::effect_values(&m, effect);
+            last.applied_with = t.with_effect;
+            last.applied_values = crate::compare::diagnose::applied_values(&m, effect, t.with_effect);
         }
         model.history.push(Round {
             round: n + 1,
@@ -427,11 +428,11 @@ impl Workbench {
             domains: t.domains.iter().map(|(d, _, after)| (d.clone(), f64::NAN, *after)).collect(),
             envelope_nrmse: t.envelope_nrmse_after,
             objective: t.objective_after,
-            verdict: format!("after adding {} (the trial's fit; Find missing effect again recalibrates)", effect.name()),
+            verdict: format!("after adding {} (the trial's fit; Find missing effect again recalibrates)", t.label()),
             ..Default::default()
         });
         model.replace_machine(m);
-        self.session.tell(Level::Info, format!("{} added: envelope NRMSE {:.1} -> {:.1} % in the trial; simulating the new model", effect.name(), t.envelope_nrmse_before, t.envelope_nrmse_after));
+        self.session.tell(Level::Info, format!("{} added: envelope NRMSE {:.1} -> {:.1} % in the trial; simulating the new model", t.label(), t.envelope_nrmse_before, t.envelope_nrmse_after));
         self.simulate_model(measured);
     }
 

@@ -96,7 +96,7 @@ impl SessionFile {
         }
         if let Some(r) = &s.model.result {
             results.verdict = Some(r.diagnosis.verdict.clone());
-            results.trials = r.diagnosis.trials.iter().map(|t| format!("{}: objective {:.1} → {:.1}, envelope NRMSE {:.1} → {:.1} %", t.effect.name(), t.objective_before, t.objective_after, t.envelope_nrmse_before, t.envelope_nrmse_after)).collect();
+            results.trials = r.diagnosis.trials.iter().map(|t| format!("{}: objective {:.1} → {:.1}, envelope NRMSE {:.1} → {:.1} %", t.label(), t.objective_before, t.objective_after, t.envelope_nrmse_before, t.envelope_nrmse_after)).collect();
         }
         results.simulated = s.signals.iter().filter(|e| matches!(e.origin, Origin::Simulated { .. })).map(|e| e.signal.name.clone()).collect();
         SessionFile {

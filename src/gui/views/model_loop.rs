@@ -359,7 +359,7 @@ impl ModelLoopView {
                 }
                 ui.end_row();
                 for (i, t) in d.trials.iter().enumerate() {
-                    let name = format!("{}. {}", i + 1, t.effect.name());
+                    let name = format!("{}. {}", i + 1, t.label());
                     let name = if d.best == Some(t.effect) { RichText::new(name).strong() } else { RichText::new(name) };
                     ui.label(name).on_hover_text(drawable(&t.summary));
                     ui.label(format!("{:.1} -> {:.1}", t.objective_before, t.objective_after));
@@ -375,7 +375,7 @@ impl ModelLoopView {
                     } else {
                         ""
                     };
-                    let b = ui.add_enabled(why.is_empty(), egui::Button::new(format!("Add {}", t.effect.name())));
+                    let b = ui.add_enabled(why.is_empty(), egui::Button::new(format!("Add {}", t.label())));
                     let b = b.on_hover_text("switch the effect on with its fitted parameters (on the calibrated model), simulate again and compare").on_disabled_hover_text(why);
                     if b.clicked() {
                         *cmd = Some(Command::AddTrial { effect: t.effect, measured });
@@ -392,7 +392,7 @@ impl ModelLoopView {
                 let edge = t.not_a_finding_note().map_or(String::new(), |note| format!("; {note}"));
                 let start = if t.from_uncalibrated { "; its best fit started from the uncalibrated values" } else { "" };
                 let fine = if t.fine_cell_won.is_empty() { String::new() } else { format!("; {} ended lower from the fine grid's cell than from the coarse grid's", t.fine_cell_won.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")) };
-                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}{start}{fine}", i + 1, t.effect.name(), drawable(&t.evidence), t.explained * 100.0)).wrap());
+                ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}{start}{fine}", i + 1, t.label(), drawable(&t.evidence), t.explained * 100.0)).wrap());
             }
         });
     }
