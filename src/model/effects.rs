@@ -340,7 +340,10 @@ impl Default for BeltDrive {
 
 /// Hertzian (nonlinear) ball–race contact, `Q = K δ^n`. Off: a linearised contact
 /// `Q = k_lin δ` with `k_lin = n K δ₀^(n−1)` at the nominal deflection `δ₀` under
-/// `bearing.uniform_preload_n`; the response to large loads then differs.
+/// `bearing.uniform_preload_n`; the response to large loads then differs. Without a load zone
+/// every ball sits at that preload and the two laws give nearly the same response (6e-6 of its
+/// RMS on the MFS gear rig, against 0.73 under a 77 N load zone): the law acts through the
+/// load ([`EffectKind::acts_through`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct NonlinearContact {}
