@@ -38,8 +38,9 @@ impl EffectKind {
     /// switches on with it ([`crate::compare::diagnose::companion`]): the Hertzian contact law
     /// (`nonlinear_contact`) differs from its linearisation only under a load that moves the
     /// balls away from the preload it is linearised at, and without a load zone every ball
-    /// carries that uniform preload, so the two laws give the same model (session 62: such a
-    /// trial explained 6e-6 of the error where both were hidden, and a casing mode stood in).
+    /// carries that uniform preload, so the two laws give nearly the same model (session 62:
+    /// such a trial explained 6e-6 of the error where both were hidden, and a casing mode stood
+    /// in).
     pub fn acts_through(self) -> Option<EffectKind> {
         match self {
             EffectKind::NonlinearContact => Some(EffectKind::LoadZone),
