@@ -634,6 +634,8 @@ fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
         // The unbalance's fit ended lower from the fine force cell (`--fine-force-scan`).
         fine_cell_won: if from_uncalibrated { vec![] } else { vec![Param::UnbalanceKgM] },
         with_effect: None,
+        joint: false,
+        each_effect_explained: None,
     };
     {
         let trials = vec![trial(LoadZone, (Param::RadialLoadN, 86.0), 3.0, true), trial(Unbalance, (Param::UnbalanceKgM, 3e-4), 7.0, false)];

@@ -375,6 +375,13 @@ pub struct LoopOptions {
     /// cases that ended stuck, two ended at their true machine's level with it, 2.26 and 2.20
     /// against 4.88 and 4.42, and two were unchanged; no find lost, no false claim).
     pub refit_when_stuck: bool,
+    /// Joint trials of a stuck diagnosis ([`super::joint`], experimental since session 63):
+    /// when no single effect is significant and the calibrated model is still at or above the
+    /// floor margin's ratio, the three best single trials are tried in pairs, each pair's
+    /// effects fitted together; a pair is chosen only when switching off either effect alone
+    /// costs `significance` (each does its own work). Two missing effects can hide each
+    /// other from every single trial (session 62, bearing pair 10243). Default: off.
+    pub joint_trials: bool,
     /// The near-floor rule ([`super::diagnose::near_floor_finding`]): in a round whose
     /// calibrated objective is at least 1.2 × its seed floor (the ratio of a 0.2 margin) but
     /// below `floor_margin`'s ratio, the best trial is a finding too when it explains at least
@@ -638,7 +645,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

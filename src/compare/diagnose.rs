@@ -100,13 +100,26 @@ pub struct EffectTrial {
     /// trial of one effect.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub with_effect: Option<EffectKind>,
+    /// A joint trial of a stuck diagnosis ([`super::joint`], `LoopOptions::joint_trials`): its
+    /// effect and [`EffectTrial::with_effect`] are two effects each with a trial of its own,
+    /// fitted together here. False for a single trial and for one that brought a companion.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub joint: bool,
+    /// Of a [`EffectTrial::joint`] trial: what switching off its effect alone, and its
+    /// `with_effect` alone, costs in its fit, as shares of the error above the floor (as
+    /// [`EffectTrial::effect_explained`] for both). None for any other trial.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub each_effect_explained: Option<(f64, f64)>,
 }
 
 impl EffectTrial {
     /// The trial's name for the user: its effect, and the [`EffectTrial::with_effect`] it
     /// switched on with it (`nonlinear_contact with load_zone`).
     pub fn label(&self) -> String {
-        trial_label(self.effect, self.with_effect)
+        match (self.joint, self.with_effect) {
+            (true, Some(b)) => trial_label_joint(self.effect, b),
+            _ => trial_label(self.effect, self.with_effect),
+        }
     }
 }
 
@@ -116,6 +129,11 @@ pub fn trial_label(k: EffectKind, with_effect: Option<EffectKind>) -> String {
         Some(c) => format!("{} with {}", k.name(), c.name()),
         None => k.name().to_string(),
     }
+}
+
+/// The name of a joint trial of `a` and `b` ([`EffectTrial::joint`]): `a + b`.
+pub fn trial_label_joint(a: EffectKind, b: EffectKind) -> String {
+    format!("{} + {}", a.name(), b.name())
 }
 
 /// What the CLI and the app print when a diagnosis's floor is 0: nothing in the model is
@@ -255,6 +273,11 @@ pub struct Diagnosis {
     /// or no trial is a lead.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub near_floor_lead: Option<EffectKind>,
+    /// With `LoopOptions::joint_trials`, when the search was stuck: the joint trials of its
+    /// best single trials ([`super::joint`]), best first. One that is a finding is also the
+    /// head of [`Diagnosis::trials`] and the diagnosis's choice. Empty otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub joint_trials: Vec<EffectTrial>,
 }
 
 /// A diagnosis redone with several realisations because a random effect led it with one
@@ -414,7 +437,7 @@ fn evidence(k: EffectKind, map: &ResidualMap, mode_hz: Option<f64>) -> (String, 
 /// through shows that effect's signature, the contact nonlinearity having none of its own in
 /// the residual map (session 62: a tie on evidence went to a casing mode whose band carried 2 %
 /// of the PSD error, where the load zone's lines carried 64 % of the envelope's).
-fn trial_evidence(k: EffectKind, with_effect: Option<EffectKind>, map: &ResidualMap, fm: &Machine) -> (String, f64) {
+pub(super) fn trial_evidence(k: EffectKind, with_effect: Option<EffectKind>, map: &ResidualMap, fm: &Machine) -> (String, f64) {
     evidence(with_effect.unwrap_or(k), map, if k == EffectKind::CasingModes { Param::CasingModeHz.get(fm) } else { None })
 }
 
@@ -433,7 +456,7 @@ fn switched_off(mut fm: Machine, t: &EffectTrial) -> Machine {
 
 /// Calibrated parameters every trial re-fits locally after fitting its effect (see
 /// [`fit_trial`]): the noise level absorbs whatever energy the model lacks.
-const TRIAL_REFINE: [Param; 1] = [Param::NoiseSnrDb];
+pub(super) const TRIAL_REFINE: [Param; 1] = [Param::NoiseSnrDb];
 
 /// Seeds of the replicas behind [`seed_floor`].
 const FLOOR_SEEDS: [u64; 2] = [0x5EED_0001, 0x5EED_0002];
@@ -472,7 +495,7 @@ pub fn seed_floor(m: &Machine, like: &Signal, against: &Comparison, opts: &LoopO
 }
 
 /// `m` with its random seed mixed with `salt`: the same machine, another realisation.
-fn reseeded(m: &Machine, salt: u64) -> Machine {
+pub(super) fn reseeded(m: &Machine, salt: u64) -> Machine {
     let mut t = m.clone();
     t.seed = m.seed ^ salt;
     t
@@ -637,7 +660,7 @@ pub fn near_floor_finding(trials: &[EffectTrial], j0: f64, floor: f64, scatter: 
 /// an edge ([`EffectTrial::outside_band`]), or a strength pinned at an edge, with that range
 /// ([`EffectTrial::pinned`]; not at a top that is the physics' own limit,
 /// [`Param::top_is_a_physical_limit`]: the effect is at least that strong, a finding still).
-fn range_edge(p: Param, v: f64, m: &Machine) -> (bool, Option<(f64, f64)>) {
+pub(super) fn range_edge(p: Param, v: f64, m: &Machine) -> (bool, Option<(f64, f64)>) {
     let (lo, hi, log) = p.bounds(m);
     if !at_search_bound(v, lo, hi, log) {
         return (false, None);
@@ -678,7 +701,7 @@ fn pinned_clause(t: &EffectTrial) -> String {
 
 /// Objectives closer than this to each other are tied: `2√2 σ`, the spread of a difference of
 /// two objectives that each scatter by σ, doubled.
-fn tie_width(scatter: f64) -> f64 {
+pub(super) fn tie_width(scatter: f64) -> f64 {
     2.0 * std::f64::consts::SQRT_2 * scatter
 }
 
@@ -812,8 +835,22 @@ fn with_strength_range(cal: Machine, mut d: Diagnosis, reference: &Reference, op
     Ok((cal, d))
 }
 
-/// [`diagnose_with`] without the strength range.
+/// [`diagnose_with`] without the strength range: [`diagnose_singles`], and, with
+/// [`LoopOptions::joint_trials`] when it is stuck, its joint trials ([`super::joint`]).
 fn diagnose_search(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
+    let (cal, d) = diagnose_singles(m, reference, opts, progress)?;
+    if opts.joint_trials && stuck(&d, opts) {
+        // Judged as the diagnosis was: a second look's realisations when it is one.
+        let judged = judged_options(&d, opts);
+        let d = super::joint::with_joint_trials(m, &cal, d, reference, &judged, progress)?;
+        return Ok((cal, d));
+    }
+    Ok((cal, d))
+}
+
+/// The search of single effects behind [`diagnose_search`]: the plain search, unbent when it
+/// is stuck or short, each with its second look for a random effect.
+fn diagnose_singles(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let mut calibrated = Vec::new();
     let first = diagnose_once(m, reference, opts, false, &mut calibrated, progress)?;
     if unbend_acts(&first.1, opts) {
@@ -952,7 +989,7 @@ fn trial_main_parameter(k: EffectKind, m: &Machine) -> Option<Param> {
 
 /// `m` (without `k`) with effect `k` switched on for its trial: with its [`companion`], and a
 /// path modulation at the shaft rate.
-fn switched_on(m: &Machine, k: EffectKind) -> Machine {
+pub(super) fn switched_on(m: &Machine, k: EffectKind) -> Machine {
     let mut t = m.clone();
     if let Some(c) = companion(k, m) {
         t.effects.enable(c);
@@ -1098,7 +1135,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
         let with_effect = companion(k, &cal_m);
         let (ev, ev_share) = trial_evidence(k, with_effect, &map, fm);
         let summary = trial_summary(&trial_label(k, with_effect), &ev, parameter, &extra, (env0, env), (j0, j));
-        EffectTrial { effect: k, with_effect, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None, from_uncalibrated: false, fine_cell_won: f.fine_cell_won.clone() }
+        EffectTrial { effect: k, with_effect, parameter, extra_parameters: extra, objective_before: j0, objective_after: j, envelope_nrmse_before: env0, envelope_nrmse_after: env, domains, reduction, explained, evidence: ev, evidence_share: ev_share, tied_with_best: false, outside_band, pinned, summary, objective_without_effect: None, effect_explained: None, objective_fitted: None, from_uncalibrated: false, fine_cell_won: f.fine_cell_won.clone(), joint: false, each_effect_explained: None }
     };
     // The plain trial's fit of `k` from `t` (the effect's parameters, then the noise level
     // refined), each of `scan` first scanned on a grid; `reported` are the parameters besides
@@ -1277,7 +1314,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let near_floor_lead = named_lead(&trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead, joint_trials: Vec::new() }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before
@@ -1317,7 +1354,7 @@ pub const HELD_OUT_SALT: u64 = 0x4E1D_0000_0000;
 /// A trial's relative reduction of the objective, `(j0 − j) / j0`, and the share of the error
 /// above the floor it explains, `(j0 − j) / (j0 − floor)` (0 where the denominator is not
 /// positive).
-fn shares(j0: f64, j: f64, floor: f64) -> (f64, f64) {
+pub(super) fn shares(j0: f64, j: f64, floor: f64) -> (f64, f64) {
     let reduction = if j0 > 0.0 { (j0 - j) / j0 } else { 0.0 };
     let explained = if j0 - floor > 0.0 { (j0 - j) / (j0 - floor) } else { 0.0 };
     (reduction, explained)
@@ -1325,7 +1362,7 @@ fn shares(j0: f64, j: f64, floor: f64) -> (f64, f64) {
 
 /// The sentence of a trial: its evidence, the fitted values, and envelope NRMSE and objective
 /// before → after.
-fn trial_summary(name: &str, evidence: &str, parameter: Option<(Param, f64)>, extra: &[(Param, f64)], env: (f64, f64), j: (f64, f64)) -> String {
+pub(super) fn trial_summary(name: &str, evidence: &str, parameter: Option<(Param, f64)>, extra: &[(Param, f64)], env: (f64, f64), j: (f64, f64)) -> String {
     let pv = parameter.iter().chain(extra.iter()).map(|(p, v)| format!("{} = {:.4e}", p.name(), v)).collect::<Vec<_>>().join(", ");
     let pv = if pv.is_empty() { String::new() } else { format!(" ({pv})") };
     format!("{evidence}; adding {}{pv} changes envelope NRMSE from {:.1} % to {:.1} % (objective {:.1} → {:.1})", name, env.0, env.1, j.0, j.1)
@@ -1336,7 +1373,7 @@ fn trial_summary(name: &str, evidence: &str, parameter: Option<(Param, f64)>, ex
 /// in [`EffectTrial::objective_fitted`]; the objectives, envelope NRMSE, per-domain NRMSE, the
 /// reduction, the explained share (against `floor`) and the summary become the held-out
 /// ones. The ablation is the caller's.
-fn rejudge(t: &mut EffectTrial, before: &Comparison, after: &Comparison, floor: f64, weights: &[f64; 3]) {
+pub(super) fn rejudge(t: &mut EffectTrial, before: &Comparison, after: &Comparison, floor: f64, weights: &[f64; 3]) {
     let (j0, j) = (objective(before, weights), objective(after, weights));
     let (env0, env) = (before.envelope_nrmse(), after.envelope_nrmse());
     t.objective_fitted = Some(t.objective_after);
@@ -1821,12 +1858,13 @@ pub fn refit_from_uncalibrated(cal: &Machine, start: &Machine, a: EffectKind, re
 }
 
 /// The options of the diagnoses a stuck round makes of its replacement and re-fit candidates:
-/// those of the loop without [`LoopOptions::unbend_when_stuck`]. The round's own diagnosis
+/// those of the loop without [`LoopOptions::unbend_when_stuck`] (nor the joint trials of
+/// [`LoopOptions::joint_trials`], for the same reason). The round's own diagnosis
 /// has already been searched unbent when the option is on; searching every candidate model
 /// unbent as well cost the seen pair 3805 an unbent search per candidate (104 min for one
 /// case, docs/loop-notebook.md "Unbend when stuck").
 fn searched_plainly(opts: &LoopOptions) -> LoopOptions {
-    LoopOptions { unbend_when_stuck: false, unbend_when_short: false, ..opts.clone() }
+    LoopOptions { unbend_when_stuck: false, unbend_when_short: false, joint_trials: false, ..opts.clone() }
 }
 
 /// A replacement the loop keeps: the new machine, its diagnosis (calibrated machine,
@@ -2020,6 +2058,8 @@ mod tests {
             from_uncalibrated: false,
             fine_cell_won: vec![],
             with_effect: None,
+            joint: false,
+            each_effect_explained: None,
         }
     }
 

@@ -5,6 +5,7 @@
 pub mod calibrate;
 pub mod diagnose;
 pub mod hidden;
+pub mod joint;
 pub mod metrics;
 pub mod residual;
 pub mod strength_range;
