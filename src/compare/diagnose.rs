@@ -1165,7 +1165,8 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                 let (t, ps, scan) = unbent_start(k);
                 t.validate().map_err(|e| e.to_string())?;
                 let (fm, f) = fit_scanning(&t, measured, &ps, &scan, 1, fit_opts, progress).map_err(|e| e.to_string())?;
-                let released: Vec<Param> = ps.into_iter().filter(|p| !trial_parameters(k, m).contains(p)).collect();
+                let own = trial_parameters(k, m);
+                let released: Vec<Param> = ps.into_iter().filter(|p| !own.contains(p)).collect();
                 Ok((EffectTrial { from_uncalibrated: true, ..make_trial(k, &fm, &f, &released) }, fm))
             };
             // From the calibrated model, the effect fitted and the noise level re-fitted.
