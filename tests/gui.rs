@@ -487,6 +487,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("re-calibrate with a roll-off: the sensor roll-off's trial re-does the calibration from the uncalibrated values, as the casing mode's does (experimental)").click_accesskit();
     h.run_steps(3);
     assert_eq!(h.state().settings.loop_options(Default::default()).recalibrate_roll_off, !lib.recalibrate_roll_off);
+    // The experimental joint trials: off until ticked.
+    assert!(!o.joint_trials);
+    h.get_by_label("joint trials: a stuck search tries its three best single trials in pairs (experimental)").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).joint_trials);
     // The scan of periodic forces: on by default (since session 40) until unticked.
     assert!(o.scan_force_amplitudes);
     h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid").click_accesskit();

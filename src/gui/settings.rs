@@ -88,6 +88,9 @@ pub struct Settings {
     /// Model loop: the sensor roll-off's trial re-does the calibration with it, as the casing
     /// mode's does (`LoopOptions::recalibrate_roll_off`, experimental).
     pub loop_recalibrate_roll_off: bool,
+    /// Model loop: a stuck search tries its three best single trials in pairs
+    /// (`LoopOptions::joint_trials`, experimental).
+    pub loop_joint_trials: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
     /// (`LoopOptions::polish_sweeps`; 0 = off, 4 by default since session 44).
     pub loop_polish_sweeps: usize,
@@ -132,6 +135,7 @@ impl Default for Settings {
             loop_fine_force_scan: LoopOptions::default().fine_force_scan,
             loop_effect_must_work: LoopOptions::default().effect_must_work,
             loop_recalibrate_roll_off: LoopOptions::default().recalibrate_roll_off,
+            loop_joint_trials: LoopOptions::default().joint_trials,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
             loop_polish_second_starts: LoopOptions::default().polish_second_starts,
             loop_scf_one_normaliser: LoopOptions::default().compare.scf_one_normaliser,
@@ -204,6 +208,7 @@ impl Settings {
             fine_force_scan: self.loop_fine_force_scan,
             effect_must_work: self.loop_effect_must_work,
             recalibrate_roll_off: self.loop_recalibrate_roll_off,
+            joint_trials: self.loop_joint_trials,
             polish_sweeps: self.loop_polish_sweeps,
             polish_second_starts: self.loop_polish_second_starts,
             ..Default::default()
@@ -275,6 +280,7 @@ mod tests {
             loop_fine_force_scan: true,
             loop_effect_must_work: !LoopOptions::default().effect_must_work,
             loop_recalibrate_roll_off: !LoopOptions::default().recalibrate_roll_off,
+            loop_joint_trials: !LoopOptions::default().joint_trials,
             loop_polish_sweeps: 0,
             loop_polish_second_starts: true,
             loop_scf_one_normaliser: false,
@@ -306,5 +312,6 @@ mod tests {
         let changed = everything_changed().loop_options(CompareOptions::default());
         assert_ne!(changed.effect_must_work, LoopOptions::default().effect_must_work);
         assert_ne!(changed.recalibrate_roll_off, LoopOptions::default().recalibrate_roll_off);
+        assert_ne!(changed.joint_trials, LoopOptions::default().joint_trials);
     }
 }
