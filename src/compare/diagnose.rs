@@ -1485,6 +1485,10 @@ pub struct Round {
     /// ([`EffectTrial::with_effect`]: a load zone with a contact nonlinearity).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub applied_with: Option<EffectKind>,
+    /// `applied` and `applied_with` came from a joint trial ([`EffectTrial::joint`]): two
+    /// effects each with a trial of its own, not one acting through the other.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub applied_jointly: bool,
     /// The effect taken out at the end of the round, when the loop replaced an applied effect
     /// (see [`run_loop`]); `applied` is then the one put in its place. Both are the same effect
     /// when the loop re-fitted it from the uncalibrated values instead ([`Round::refitted`]).
@@ -1566,9 +1570,19 @@ impl Round {
         match (self.applied, self.removed) {
             (Some(b), Some(a)) if a == b => format!("{} {REFITTED}", b.name()),
             (Some(b), Some(a)) => format!("{} in place of {}", b.name(), a.name()),
-            (Some(b), None) => trial_label(b, self.applied_with),
+            (Some(_), None) => self.applied_label().unwrap_or_default(),
             _ => none.to_string(),
         }
+    }
+
+    /// The applied trial's name ([`EffectTrial::label`]): `a with c` for an effect applied
+    /// with the one it acts through, `a + b` for a joint trial; None when nothing was applied.
+    pub fn applied_label(&self) -> Option<String> {
+        let b = self.applied?;
+        Some(match (self.applied_jointly, self.applied_with) {
+            (true, Some(c)) => trial_label_joint(b, c),
+            _ => trial_label(b, self.applied_with),
+        })
     }
 
     /// [`change`](Self::change) with the applied effect's values, e.g.
@@ -1576,7 +1590,7 @@ impl Round {
     pub fn change_with_values(&self, none: &str) -> String {
         let Some(b) = self.applied else { return none.to_string() };
         let values = effect_values_text(&self.applied_values);
-        let name = trial_label(b, self.applied_with);
+        let name = self.applied_label().unwrap_or_default();
         let added = if values.is_empty() { name } else { format!("{name} ({values})") };
         match self.removed {
             Some(a) if a == b => format!("{added} {REFITTED}"),
@@ -1951,6 +1965,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
                 Some(t) => {
                     apply_trial(&mut next, t);
                     round.applied_with = t.with_effect;
+                    round.applied_jointly = t.joint;
                 }
                 None => next.effects.enable(k),
             }
@@ -2521,6 +2536,29 @@ mod tests {
         assert!(replacement_candidates(&h, &m, &LoopOptions::default()).is_empty());
         r1.applied_with = None;
         assert_eq!(replacement_candidates(&[r1, round(2, vec![], None, None)], &m, &LoopOptions::default()), vec![(NonlinearContact, CasingModes)]);
+    }
+
+    #[test]
+    fn a_joint_trial_is_applied_with_both_effects_and_named_with_a_plus() {
+        use EffectKind::*;
+        let mut m = crate::model::preset("mfs_inner").unwrap();
+        let t = EffectTrial { with_effect: Some(Unbalance), joint: true, ..fitted(CasingModes, Some((Param::CasingModeHz, 3900.0)), vec![(Param::UnbalanceKgM, 2e-4)]) };
+        assert_eq!(t.label(), "casing_modes + unbalance");
+        apply_trial(&mut m, &t);
+        assert!(m.effects.is_on(CasingModes) && m.effects.is_on(Unbalance));
+        assert_eq!((Param::CasingModeHz.get(&m), Param::UnbalanceKgM.get(&m)), (Some(3900.0), Some(2e-4)));
+        let mut r1 = round(1, vec![], Some(CasingModes), None);
+        (r1.applied_with, r1.applied_jointly) = (t.with_effect, t.joint);
+        r1.applied_values = applied_values(&m, CasingModes, r1.applied_with);
+        assert_eq!(r1.change("-"), "casing_modes + unbalance");
+        assert!(r1.change_with_values("-").starts_with("casing_modes + unbalance (frequency_hz = 3.900e3"), "{}", r1.change_with_values("-"));
+        assert_eq!(applied_effects(&[r1.clone()]), vec![CasingModes, Unbalance]);
+        // Its ablation, as any trial's, switches both off.
+        let off = switched_off(m.clone(), &t);
+        assert!(!off.effects.is_on(CasingModes) && !off.effects.is_on(Unbalance));
+        // A round of a companion trial keeps its name.
+        r1.applied_jointly = false;
+        assert_eq!(r1.change("-"), "casing_modes with unbalance");
     }
 
     #[test]

@@ -251,7 +251,7 @@ impl Workbench {
             }
             Command::SimulateModel { measured } => self.simulate_model(measured),
             Command::FindMissingEffect { measured } => self.find_missing_effect(measured),
-            Command::AddTrial { effect, measured } => self.add_trial(effect, measured),
+            Command::AddTrial { effect, trial, measured } => self.add_trial(effect, trial, measured),
             Command::ReplaceEffect { remove, add, measured } => self.replace_effect(remove, add, measured),
             Command::RefitEffect { effect, measured } => self.refit_effect(effect, measured),
             Command::ComputeScf { source, params } => self.compute_scf(source, params),
@@ -399,12 +399,13 @@ impl Workbench {
         });
     }
 
-    fn add_trial(&mut self, effect: crate::model::EffectKind, measured: Option<usize>) {
+    fn add_trial(&mut self, effect: crate::model::EffectKind, trial: usize, measured: Option<usize>) {
         let Some(r) = self.session.model.result.as_mut() else {
             self.session.tell(Level::Error, "no ranking yet: run Find missing effect first");
             return;
         };
-        let Some(t) = r.diagnosis.trials.iter().find(|t| t.effect == effect).cloned() else {
+        // The ranking's entry clicked: a joint trial and the single trial of its effect share it.
+        let Some(t) = r.diagnosis.trials.get(trial).filter(|t| t.effect == effect).cloned() else {
             self.session.tell(Level::Error, format!("{} is not in the ranking", effect.name()));
             return;
         };
@@ -420,6 +421,7 @@ impl Workbench {
         if let Some(last) = model.history.last_mut() {
             last.applied = Some(effect);
             last.applied_with = t.with_effect;
+            last.applied_jointly = t.joint;
             last.applied_values = crate::compare::diagnose::applied_values(&m, effect, t.with_effect);
         }
         model.history.push(Round {

@@ -61,8 +61,9 @@ pub enum Command {
     SimulateModel { measured: Option<usize> },
     /// Model loop: calibrate and rank the missing effects against a measured signal.
     FindMissingEffect { measured: usize },
-    /// Model loop: apply a ranked trial to the calibrated machine, re-simulate and re-compare.
-    AddTrial { effect: EffectKind, measured: Option<usize> },
+    /// Model loop: apply a ranked trial (`trial`, its index in the ranking, of `effect`) to the
+    /// calibrated machine, re-simulate and re-compare.
+    AddTrial { effect: EffectKind, trial: usize, measured: Option<usize> },
     /// Model loop, when stuck: switch `remove` off and `add` on in the calibrated machine and
     /// search again against `measured`.
     ReplaceEffect { remove: EffectKind, add: EffectKind, measured: usize },

@@ -362,7 +362,8 @@ impl ModelLoopView {
                 ui.end_row();
                 for (i, t) in d.trials.iter().enumerate() {
                     let name = format!("{}. {}", i + 1, t.label());
-                    let name = if d.best == Some(t.effect) { RichText::new(name).strong() } else { RichText::new(name) };
+                    // The chosen trial heads the ranking (a joint trial shares its effect with a single one).
+                    let name = if d.best == Some(t.effect) && i == 0 { RichText::new(name).strong() } else { RichText::new(name) };
                     ui.label(name).on_hover_text(drawable(&t.summary));
                     ui.label(format!("{:.1} -> {:.1}", t.objective_before, t.objective_after));
                     ui.label(format!("{:.1} -> {:.1} %", t.envelope_nrmse_before, t.envelope_nrmse_after));
@@ -380,7 +381,7 @@ impl ModelLoopView {
                     let b = ui.add_enabled(why.is_empty(), egui::Button::new(format!("Add {}", t.label())));
                     let b = b.on_hover_text("switch the effect on with its fitted parameters (on the calibrated model), simulate again and compare").on_disabled_hover_text(why);
                     if b.clicked() {
-                        *cmd = Some(Command::AddTrial { effect: t.effect, measured });
+                        *cmd = Some(Command::AddTrial { effect: t.effect, trial: i, measured });
                     }
                     ui.end_row();
                 }
