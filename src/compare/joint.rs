@@ -111,20 +111,21 @@ fn joint_trial(m: &Machine, cal: &Machine, a: &EffectTrial, b: &EffectTrial, ref
         }
         None => fm,
     };
-    let excess = trial.objective_before - floor;
-    let cost = |off: &[EffectKind]| -> Option<f64> {
+    // Ablations: the fitted machine without both effects, and without each alone.
+    let without = |off: &[EffectKind]| -> Option<f64> {
         let mut x = judged.clone();
         for k in off {
             x.effects.disable(*k);
         }
         let j = evaluate(&x, reference, opts).ok().map(|(c, _)| objective(&c, &opts.weights));
         progress.tick();
-        j.filter(|_| excess > 0.0).map(|j| (j - trial.objective_after) / excess)
+        j
     };
-    let both = cost(&[a.effect, b.effect]);
-    trial.objective_without_effect = both.map(|e| trial.objective_after + e * excess);
-    trial.effect_explained = both;
-    trial.each_effect_explained = cost(&[a.effect]).zip(cost(&[b.effect]));
+    let excess = trial.objective_before - floor;
+    let cost = |j: Option<f64>| j.filter(|_| excess > 0.0).map(|j| (j - trial.objective_after) / excess);
+    trial.objective_without_effect = without(&[a.effect, b.effect]);
+    trial.effect_explained = cost(trial.objective_without_effect);
+    trial.each_effect_explained = cost(without(&[a.effect])).zip(cost(without(&[b.effect])));
     Ok(trial)
 }
 
