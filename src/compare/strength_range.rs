@@ -16,7 +16,7 @@
 use super::calibrate::{calibration_parameters_for, fit_trial, fit_trial_evaluations, from_search_scale, to_search_scale, LoopError, LoopOptions, LoopProgress, Param};
 use super::diagnose::{apply_trial, objective_scatter, Diagnosis, EffectTrial, SCATTER_SEEDS};
 use super::Reference;
-use crate::model::{EffectKind, Machine};
+use crate::model::Machine;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -93,18 +93,19 @@ pub fn profile_points(x: f64, lo: f64, hi: f64, log: bool) -> Vec<f64> {
     us.into_iter().map(to).collect()
 }
 
-/// The parameters re-fitted at every profile point of effect `k` on the calibrated machine
-/// `cal`: the calibration's and the effect's own, all but its strength (which for `noise` is
-/// a calibration parameter itself).
-fn released(cal: &Machine, k: EffectKind, opts: &LoopOptions) -> Vec<Param> {
-    let main = Param::main_of_effect(k);
+/// The parameters re-fitted at every profile point of trial `t` on the calibrated machine
+/// `cal`, its strength `strength` held: the calibration's and those of every effect the trial
+/// switched on (its own, and its [`EffectTrial::with_effect`]: a load zone's clearance under a
+/// contact nonlinearity, the other effect of a joint trial), all but the strength (which for
+/// `noise` is a calibration parameter itself).
+fn released(cal: &Machine, t: &EffectTrial, strength: Param, opts: &LoopOptions) -> Vec<Param> {
     let mut ps = calibration_parameters_for(cal, opts);
-    for p in Param::of_effect(k) {
+    for p in std::iter::once(t.effect).chain(t.with_effect).flat_map(Param::of_effect) {
         if !ps.contains(&p) {
             ps.push(p);
         }
     }
-    ps.retain(|p| Some(*p) != main);
+    ps.retain(|p| *p != strength);
     ps
 }
 
@@ -113,7 +114,7 @@ fn released(cal: &Machine, k: EffectKind, opts: &LoopOptions) -> Vec<Param> {
 pub fn strength_range_evaluations(cal: &Machine, d: &Diagnosis, opts: &LoopOptions) -> usize {
     let Some((t, fm, p, x)) = chosen_fit(cal, d) else { return 0 };
     let (lo, hi, log) = p.bounds(&fm);
-    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, t.effect, opts), opts) + SCATTER_SEEDS.len()
+    profile_points(x, lo, hi, log).len() * fit_trial_evaluations(&fm, &[], &released(cal, t, p, opts), opts) + SCATTER_SEEDS.len()
 }
 
 /// `d`'s chosen trial, applied to `cal`, with its strength parameter and fitted value.
@@ -135,7 +136,7 @@ pub fn strength_range(cal: &Machine, d: &Diagnosis, reference: &Reference, opts:
     let Some((t, fm, p, x)) = chosen_fit(cal, d) else { return Ok(None) };
     let (lo, hi, log) = p.bounds(&fm);
     let points = profile_points(x, lo, hi, log);
-    let refit = released(cal, t.effect, opts);
+    let refit = released(cal, t, p, opts);
     let profile: Vec<Result<(f64, f64), LoopError>> = points
         .par_iter()
         .map(|&v| {
@@ -211,6 +212,7 @@ pub fn range_of_profile(p: Param, x: f64, profile: &[(f64, f64)], tolerance: f64
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::EffectKind;
 
     #[test]
     fn profile_points_are_symmetric_in_log_and_clipped_at_the_bounds() {
@@ -236,11 +238,24 @@ mod tests {
         m.effects.enable(EffectKind::Noise);
         let opts = LoopOptions::default();
         // Noise: its strength is the calibration's noise level, held, not re-fitted.
-        let r = released(&m, EffectKind::Noise, &opts);
+        let trial = |k: EffectKind, with_effect: Option<EffectKind>| -> EffectTrial {
+            serde_json::from_value(serde_json::json!({
+                "effect": k, "with_effect": with_effect, "parameter": null, "extra_parameters": [], "objective_before": 6.0, "objective_after": 3.0,
+                "envelope_nrmse_before": 3.0, "envelope_nrmse_after": 2.0, "reduction": 0.5, "evidence": "", "summary": ""
+            }))
+            .unwrap()
+        };
+        let r = released(&m, &trial(EffectKind::Noise, None), Param::NoiseSnrDb, &opts);
         assert!(!r.contains(&Param::NoiseSnrDb) && r.contains(&Param::ResonanceHz), "{r:?}");
         // A load zone: the load held, its clearance re-fitted with the calibration.
-        let r = released(&m, EffectKind::LoadZone, &opts);
+        let r = released(&m, &trial(EffectKind::LoadZone, None), Param::RadialLoadN, &opts);
         assert!(!r.contains(&Param::RadialLoadN) && r.contains(&Param::RadialClearanceM) && r.contains(&Param::NoiseSnrDb), "{r:?}");
+        // A contact nonlinearity with its load zone: the load held, the clearance re-fitted too.
+        let r = released(&m, &trial(EffectKind::NonlinearContact, Some(EffectKind::LoadZone)), Param::RadialLoadN, &opts);
+        assert!(!r.contains(&Param::RadialLoadN) && r.contains(&Param::RadialClearanceM), "{r:?}");
+        // A joint trial: the other effect's parameters re-fitted, the held one's strength not.
+        let r = released(&m, &trial(EffectKind::CasingModes, Some(EffectKind::Unbalance)), Param::CasingModeHz, &opts);
+        assert!(!r.contains(&Param::CasingModeHz) && r.contains(&Param::UnbalanceKgM), "{r:?}");
     }
 
     #[test]
