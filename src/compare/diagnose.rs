@@ -916,7 +916,7 @@ fn unbent_verdict(mut d2: Diagnosis, d: &Diagnosis, opts: &LoopOptions) -> Diagn
 }
 
 /// Appends to `to` each item of `from` it lacks, in order.
-fn add_missing<T: PartialEq + Copy>(to: &mut Vec<T>, from: &[T]) {
+pub(super) fn add_missing<T: PartialEq + Copy>(to: &mut Vec<T>, from: &[T]) {
     for k in from {
         if !to.contains(k) {
             to.push(*k);

@@ -13,7 +13,7 @@
 //! above the floor, so an effect that only rides along with a real one is refused.
 
 use super::calibrate::{calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, objective, Fit, LoopError, LoopOptions, LoopProgress, Param};
-use super::diagnose::{self, Diagnosis, EffectTrial, HELD_OUT_SALT};
+use super::diagnose::{self, add_missing, Diagnosis, EffectTrial, HELD_OUT_SALT};
 use super::residual::residual_map;
 use super::{Comparison, Reference};
 use crate::model::{EffectKind, Machine};
@@ -42,15 +42,6 @@ fn trial_value(t: &EffectTrial, p: Param) -> Option<f64> {
     t.parameter.iter().chain(t.extra_parameters.iter()).find(|(q, _)| *q == p).map(|(_, v)| *v)
 }
 
-/// Appends each of `from` that `to` lacks.
-fn extend_new(to: &mut Vec<Param>, from: impl IntoIterator<Item = Param>) {
-    for p in from {
-        if !to.contains(&p) {
-            to.push(p);
-        }
-    }
-}
-
 /// Where the joint trial of `a` and `b` starts and what it fits: (start, parameters fitted,
 /// parameters scanned first, whether it re-does the calibration). With a re-calibrating effect
 /// ([`diagnose::recalibrates`]: the casing mode), from `m`'s uncalibrated values, the other
@@ -63,7 +54,7 @@ pub fn joint_start(m: &Machine, cal: &Machine, a: &EffectTrial, b: &EffectTrial,
     let base = if recal.is_empty() { cal } else { m };
     let mut t = diagnose::switched_on(&diagnose::switched_on(base, a.effect), b.effect);
     let mut own = diagnose::trial_parameters(a.effect, base);
-    extend_new(&mut own, diagnose::trial_parameters(b.effect, base));
+    add_missing(&mut own, &diagnose::trial_parameters(b.effect, base));
     for trial in [a, b] {
         if recal.contains(&trial.effect) {
             continue;
@@ -76,9 +67,9 @@ pub fn joint_start(m: &Machine, cal: &Machine, a: &EffectTrial, b: &EffectTrial,
     }
     let mut fitted = own;
     if recal.is_empty() {
-        extend_new(&mut fitted, diagnose::TRIAL_REFINE);
+        add_missing(&mut fitted, &diagnose::TRIAL_REFINE);
     }
-    extend_new(&mut fitted, calibration_parameters_for(&t, opts));
+    add_missing(&mut fitted, &calibration_parameters_for(&t, opts));
     let scan: Vec<Param> = recal.iter().filter_map(|k| Param::main_of_effect(*k)).collect();
     (t, fitted, scan, !recal.is_empty())
 }
