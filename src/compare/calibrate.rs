@@ -382,6 +382,17 @@ pub struct LoopOptions {
     /// costs `significance` (each does its own work). Two missing effects can hide each
     /// other from every single trial (session 62, bearing pair 10243). Default: off.
     pub joint_trials: bool,
+    /// The trial of a periodic force ([`Param::periodic_force_amplitude`]) on a model where a
+    /// periodic force on the same shaft sharing a harmonic with it is already applied (an
+    /// unbalance's 1× is also a misalignment's weaker 1×) fits the new force at the applied
+    /// one's amplitude and at ±3, 6, 9 and 12 % of it ([`super::diagnose::COUPLED_SCALES`],
+    /// nine plain fits in parallel), and keeps the lowest; the trial carries the applied
+    /// amplitude, so applying it sets both. Applied first, a force takes up part of the
+    /// other's shared line, and a force's valley is narrow: with a misalignment 7 % high the
+    /// unbalance's ±10 % valley was gone (session 63, gear pair 10341,
+    /// docs/loop-notebook.md). Costs eight more plain trials of that force, in rounds where
+    /// such a force is applied only. Default: off (experimental, session 64).
+    pub coupled_forces: bool,
     /// The near-floor rule ([`super::diagnose::near_floor_finding`]): in a round whose
     /// calibrated objective is at least 1.2 × its seed floor (the ratio of a 0.2 margin) but
     /// below `floor_margin`'s ratio, the best trial is a finding too when it explains at least
@@ -645,7 +656,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: false, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -91,6 +91,9 @@ pub struct Settings {
     /// Model loop: a stuck search tries its three best single trials in pairs
     /// (`LoopOptions::joint_trials`, experimental).
     pub loop_joint_trials: bool,
+    /// Model loop: an unbalance or misalignment trial beside the other, applied on its shaft,
+    /// fits the two together (`LoopOptions::coupled_forces`, experimental).
+    pub loop_coupled_forces: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
     /// (`LoopOptions::polish_sweeps`; 0 = off, 4 by default since session 44).
     pub loop_polish_sweeps: usize,
@@ -136,6 +139,7 @@ impl Default for Settings {
             loop_effect_must_work: LoopOptions::default().effect_must_work,
             loop_recalibrate_roll_off: LoopOptions::default().recalibrate_roll_off,
             loop_joint_trials: LoopOptions::default().joint_trials,
+            loop_coupled_forces: LoopOptions::default().coupled_forces,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
             loop_polish_second_starts: LoopOptions::default().polish_second_starts,
             loop_scf_one_normaliser: LoopOptions::default().compare.scf_one_normaliser,
@@ -209,6 +213,7 @@ impl Settings {
             effect_must_work: self.loop_effect_must_work,
             recalibrate_roll_off: self.loop_recalibrate_roll_off,
             joint_trials: self.loop_joint_trials,
+            coupled_forces: self.loop_coupled_forces,
             polish_sweeps: self.loop_polish_sweeps,
             polish_second_starts: self.loop_polish_second_starts,
             ..Default::default()
@@ -281,6 +286,7 @@ mod tests {
             loop_effect_must_work: !LoopOptions::default().effect_must_work,
             loop_recalibrate_roll_off: !LoopOptions::default().recalibrate_roll_off,
             loop_joint_trials: !LoopOptions::default().joint_trials,
+            loop_coupled_forces: !LoopOptions::default().coupled_forces,
             loop_polish_sweeps: 0,
             loop_polish_second_starts: true,
             loop_scf_one_normaliser: false,
@@ -313,5 +319,6 @@ mod tests {
         assert_ne!(changed.effect_must_work, LoopOptions::default().effect_must_work);
         assert_ne!(changed.recalibrate_roll_off, LoopOptions::default().recalibrate_roll_off);
         assert_ne!(changed.joint_trials, LoopOptions::default().joint_trials);
+        assert_ne!(changed.coupled_forces, LoopOptions::default().coupled_forces);
     }
 }
