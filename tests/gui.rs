@@ -661,6 +661,59 @@ fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
     assert!(fine[0].starts_with("2. unbalance") && fine[0].contains("effects.unbalance.mass_eccentricity_kg_m ended lower"), "{fine:?}");
 }
 
+/// A stuck search's refused joint trials are listed under the evidence with their shares and
+/// what switching off each effect alone costs; a chosen one heads the ranking instead.
+#[test]
+fn model_loop_lists_the_refused_joint_trials_of_a_stuck_search() {
+    use twinscope::compare::{Diagnosis, EffectTrial, Fit, LoopOptions, Param};
+    use twinscope::gui::session::LoopResult;
+    use twinscope::model::EffectKind::*;
+    let mut h = model_loop_on_105(vec![LoadZone]);
+    let m = h.state().session.model.machine.clone();
+    let name = h.state().session.signals[0].signal.name.clone();
+    let joint = |effect, with, objective_after: f64, each: (f64, f64)| EffectTrial {
+        effect,
+        with_effect: Some(with),
+        joint: true,
+        parameter: Some((Param::CasingModeHz, 3827.0)),
+        objective_before: 8.0,
+        objective_after,
+        explained: (8.0 - objective_after) / 6.0,
+        each_effect_explained: Some(each),
+        summary: "joint".into(),
+        extra_parameters: vec![],
+        reduction: (8.0 - objective_after) / 8.0,
+        envelope_nrmse_before: 4.0,
+        envelope_nrmse_after: 3.0,
+        domains: vec![],
+        evidence: String::new(),
+        evidence_share: 0.0,
+        tied_with_best: false,
+        outside_band: false,
+        pinned: None,
+        objective_without_effect: None,
+        effect_explained: None,
+        objective_fitted: None,
+        from_uncalibrated: false,
+        fine_cell_won: vec![],
+    };
+    let joint_trials = vec![joint(SensorResponse, PathModulation, 7.4, (0.06, 0.04)), joint(Slip, PathModulation, 7.7, (0.02, 0.03))];
+    let put = |h: &mut Harness<'static, Workbench>, best: Option<twinscope::model::EffectKind>, trials: Vec<EffectTrial>| {
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, trials, best, joint_trials: joint_trials.clone(), verdict: "nothing significant is missing".into(), ..Default::default() };
+        h.state_mut().session.model.result = Some(LoopResult { measured: name.clone(), options: LoopOptions { joint_trials: true, ..Default::default() }, started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None });
+        h.run_steps(3);
+    };
+    put(&mut h, None, vec![]);
+    assert!(h.query_by_label_contains("Joint trials of this stuck search").is_some());
+    let rows = labels_containing(&h, "alone costs");
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    assert!(rows[0].starts_with("sensor_response + path_modulation: objective 8.0 -> 7.4; explains 10 %") && rows[0].contains("switching off sensor_response alone costs 6 %, path_modulation alone 4 %"), "{rows:?}");
+    // Chosen: it heads the ranking and is not listed again as refused.
+    let chosen = joint(CasingModes, NonlinearContact, 2.1, (0.9, 0.5));
+    put(&mut h, Some(CasingModes), vec![chosen]);
+    assert!(h.query_by_label_contains("Joint trials of this stuck search").is_none());
+}
+
 /// The model-loop view's history shows each round's seed floor next to its objective (what a
 /// perfect model would still score), and "-" for a round recorded from a trial's fit.
 #[test]

@@ -399,6 +399,18 @@ impl ModelLoopView {
                 let fine = if t.fine_cell_won.is_empty() { String::new() } else { format!("; {} ended lower from the fine grid's cell than from the coarse grid's", t.fine_cell_won.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")) };
                 ui.add(egui::Label::new(format!("{}. {} ({fitted}): {}; explains {:.0} % of the error above the floor{itself}{edge}{start}{fine}", i + 1, t.label(), drawable(&t.evidence), t.explained * 100.0)).wrap());
             }
+            // The joint trials of a stuck search that chose none (a chosen one heads the ranking).
+            let chosen_jointly = d.trials.first().is_some_and(|t| t.joint) && d.best.is_some();
+            if !d.joint_trials.is_empty() && !chosen_jointly {
+                ui.add_space(4.0);
+                ui.strong("Joint trials of this stuck search (none chosen; the verdict says why)");
+                for t in &d.joint_trials {
+                    let each = t.each_effect_explained.map_or(String::new(), |(a, b)| format!("; switching off {} alone costs {:.0} %, {} alone {:.0} %", t.effect.name(), a * 100.0, t.with_effect.map_or("", |k| k.name()), b * 100.0));
+                    let edge = t.not_a_finding_note().map_or(String::new(), |note| format!("; {note}"));
+                    ui.add(egui::Label::new(format!("{}: objective {:.1} -> {:.1}; explains {:.0} % of the error above the floor{each}{edge}", t.label(), t.objective_before, t.objective_after, t.explained * 100.0)).wrap())
+                        .on_hover_text(drawable(&t.summary));
+                }
+            }
         });
     }
 }
