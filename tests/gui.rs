@@ -492,11 +492,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("joint trials: a stuck search tries its three best single trials in pairs (experimental)").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).joint_trials);
-    // The experimental coupled forces: off until ticked.
-    assert!(!o.coupled_forces);
-    h.get_by_label("coupled forces: an unbalance or misalignment trial beside the other, applied, fits the two together (experimental)").click_accesskit();
+    // The coupled forces: on by default (since session 64) until unticked.
+    assert!(o.coupled_forces, "on by default");
+    h.get_by_label("coupled forces: an unbalance or misalignment trial beside the other, applied, fits the two together").click_accesskit();
     h.run_steps(3);
-    assert!(h.state().settings.loop_options(Default::default()).coupled_forces);
+    assert!(!h.state().settings.loop_options(Default::default()).coupled_forces);
     // The scan of periodic forces: on by default (since session 40) until unticked.
     assert!(o.scan_force_amplitudes);
     h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid").click_accesskit();

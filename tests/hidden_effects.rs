@@ -169,15 +169,17 @@ fn two_effects_hidden_from_every_single_trial_are_found_by_a_joint_trial() {
 /// A misalignment and an unbalance hidden together on the gear base (session 62's pair 10341,
 /// 14.9 dB): applied first, the misalignment is fitted 7 % high, taking up part of the
 /// unbalance's share of the 1× line, and the unbalance's valley, about ±10 % wide, is gone,
-/// so the default search ends stuck at 6.47 against the true machine's 2.43. With the
-/// experimental `coupled_forces` (docs/loop-notebook.md "Session 64") the unbalance's trial is
-/// fitted at the misalignment's amplitude and ±3–12 % of it, and the loop finds both.
+/// so the search before session 64 ended stuck at 6.47 against the true machine's 2.43. With
+/// `coupled_forces` (the default since session 64, docs/loop-notebook.md "Session 64") the
+/// unbalance's trial is fitted at the misalignment's amplitude and ±3–12 % of it, and the
+/// loop finds both.
 #[test]
 fn an_unbalance_is_found_beside_a_misalignment_fitted_high_when_the_forces_are_fitted_together() {
     use twinscope::compare::Param;
     use EffectKind::{Misalignment, Unbalance};
     let base = model::preset(GEAR).unwrap();
-    let opts = LoopOptions { coupled_forces: true, ..LoopOptions::default() };
+    let opts = LoopOptions::default();
+    assert!(opts.coupled_forces, "the default since session 64");
     let r = hidden::run_multi_case(&base, &[Misalignment, Unbalance], 10341, RECORD_S, 4, &opts).unwrap();
     let rounds: Vec<String> = r.history.iter().map(|h| format!("{:.2} ({:.2}) → {}", h.envelope_nrmse, h.objective / h.floor_objective, h.change_with_values("nothing"))).collect();
     eprintln!("misalignment + unbalance on {GEAR}, seed 10341: true {:?}, SNR {:.1} dB; {}; {:.0} s", r.true_parameters, r.snr_db, rounds.join("; "), r.seconds);

@@ -254,8 +254,8 @@ pub struct LoopSpec {
     /// (`LoopOptions::joint_trials`, experimental). Default: the library's (off).
     pub joint_trials: bool,
     /// The trial of an unbalance or a misalignment beside the other, applied on the same
-    /// shaft, fits the two together (`LoopOptions::coupled_forces`, experimental). Default:
-    /// the library's (off).
+    /// shaft, fits the two together (`LoopOptions::coupled_forces`). Default: the library's
+    /// (on since session 64).
     pub coupled_forces: bool,
 }
 

@@ -92,7 +92,7 @@ pub struct Settings {
     /// (`LoopOptions::joint_trials`, experimental).
     pub loop_joint_trials: bool,
     /// Model loop: an unbalance or misalignment trial beside the other, applied on its shaft,
-    /// fits the two together (`LoopOptions::coupled_forces`, experimental).
+    /// fits the two together (`LoopOptions::coupled_forces`, on since session 64).
     pub loop_coupled_forces: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
     /// (`LoopOptions::polish_sweeps`; 0 = off, 4 by default since session 44).
