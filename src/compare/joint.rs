@@ -14,7 +14,7 @@
 
 use super::calibrate::{calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, objective, Fit, LoopError, LoopOptions, LoopProgress, Param};
 use super::diagnose::{self, add_missing, Diagnosis, EffectTrial, HELD_OUT_SALT};
-use super::residual::residual_map;
+use super::residual::ResidualMap;
 use super::{Comparison, Reference};
 use crate::model::{EffectKind, Machine};
 use rayon::prelude::*;
@@ -87,11 +87,11 @@ pub fn joint_trial_evaluations(m: &Machine, cal: &Machine, a: &EffectTrial, b: &
 /// `before` (the calibrated model's comparison: on held-out realisations, `held_out`, with two
 /// or more), with its ablations.
 #[allow(clippy::too_many_arguments)]
-fn joint_trial(m: &Machine, cal: &Machine, a: &EffectTrial, b: &EffectTrial, reference: &Reference, before: &Comparison, held_out: Option<&Comparison>, floor: f64, opts: &LoopOptions, progress: &LoopProgress) -> Result<EffectTrial, String> {
+fn joint_trial(m: &Machine, cal: &Machine, a: &EffectTrial, b: &EffectTrial, reference: &Reference, (before, map): (&Comparison, &ResidualMap), held_out: Option<&Comparison>, floor: f64, opts: &LoopOptions, progress: &LoopProgress) -> Result<EffectTrial, String> {
     let (t, fitted, scan, recal) = joint_start(m, cal, a, b, opts);
     t.validate().map_err(|e| e.to_string())?;
     let (fm, f) = if recal { fit_scanning(&t, reference, &fitted, &scan, 1, opts, progress) } else { fit_trial(&t, reference, &[], &fitted, opts, progress) }.map_err(|e| e.to_string())?;
-    let mut trial = reported(a, b, &fm, &f, &fitted, before, floor, recal);
+    let mut trial = reported(a, b, &fm, &f, &fitted, (before, map), floor, recal);
     let judged = match held_out {
         Some(ch) => {
             let judged = diagnose::reseeded(&fm, HELD_OUT_SALT);
@@ -121,9 +121,10 @@ fn joint_trial(m: &Machine, cal: &Machine, a: &EffectTrial, b: &EffectTrial, ref
 }
 
 /// The reported trial of a joint fit `fm` (its fit `f` of `fitted`): `a`'s main parameter,
-/// every other fitted value, the shares against `before` and `floor`, and the evidence of both.
+/// every other fitted value, the shares against `before` and `floor`, and the evidence of both
+/// in `map` (the diagnosis's residual map of `before`, as a single trial's).
 #[allow(clippy::too_many_arguments)]
-fn reported(a: &EffectTrial, b: &EffectTrial, fm: &Machine, f: &Fit, fitted: &[Param], before: &Comparison, floor: f64, recal: bool) -> EffectTrial {
+fn reported(a: &EffectTrial, b: &EffectTrial, fm: &Machine, f: &Fit, fitted: &[Param], (before, map): (&Comparison, &ResidualMap), floor: f64, recal: bool) -> EffectTrial {
     let j0 = a.objective_before;
     let j = f.objective_after;
     let after = |d: &str| f.domains.iter().find(|x| x.0 == d).map(|x| x.2).unwrap_or(f64::NAN);
@@ -133,10 +134,8 @@ fn reported(a: &EffectTrial, b: &EffectTrial, fm: &Machine, f: &Fit, fitted: &[P
     let extra: Vec<(Param, f64)> = fitted.iter().filter(|p| Some(**p) != main).filter_map(|p| p.get(fm).map(|v| (*p, v))).collect();
     let (outside_band, pinned) = parameter.map_or((false, None), |(p, v)| diagnose::range_edge(p, v, fm));
     let (reduction, explained) = diagnose::shares(j0, j, floor);
-    let (fams, shaft) = diagnose::machine_families(fm);
-    let map = residual_map(before, &fams, shaft);
-    let (ev_a, share_a) = diagnose::trial_evidence(a.effect, None, &map, fm);
-    let (ev_b, share_b) = diagnose::trial_evidence(b.effect, None, &map, fm);
+    let (ev_a, share_a) = diagnose::trial_evidence(a.effect, None, map, fm);
+    let (ev_b, share_b) = diagnose::trial_evidence(b.effect, None, map, fm);
     let evidence = format!("{}: {ev_a}; {}: {ev_b}", a.effect.name(), b.effect.name());
     let label = diagnose::trial_label_joint(a.effect, b.effect);
     let env0 = before.envelope_nrmse();
@@ -225,7 +224,7 @@ pub fn with_joint_trials(m: &Machine, cal: &Machine, mut d: Diagnosis, reference
         None
     };
     let floor = d.floor_objective;
-    let outcomes: Vec<Result<EffectTrial, String>> = pairs.par_iter().map(|(a, b)| joint_trial(m, cal, a, b, reference, &before, held_out.as_ref(), floor, opts, progress)).collect();
+    let outcomes: Vec<Result<EffectTrial, String>> = pairs.par_iter().map(|(a, b)| joint_trial(m, cal, a, b, reference, (&before, &d.residual_map), held_out.as_ref(), floor, opts, progress)).collect();
     if progress.is_cancelled() {
         return Err(LoopError::Cancelled);
     }
