@@ -1416,12 +1416,7 @@ type TrialOutcome = Result<(EffectTrial, Machine), String>;
 /// the one with the lower objective (marked [`EffectTrial::from_uncalibrated`] when it is
 /// `b`); either when the other failed.
 fn better_start((a, b): (TrialOutcome, TrialOutcome)) -> TrialOutcome {
-    let b = b.map(|(t, m)| (EffectTrial { from_uncalibrated: true, ..t }, m));
-    match (a, b) {
-        (Ok(a), Ok(b)) => Ok(if b.0.objective_after < a.0.objective_after { b } else { a }),
-        (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
-        (Err(e), Err(_)) => Err(e),
-    }
+    lowest_outcome(vec![a, b.map(|(t, m)| (EffectTrial { from_uncalibrated: true, ..t }, m))])
 }
 
 /// Seed salt of the held-out realisations on which, with two or more realisations, the
