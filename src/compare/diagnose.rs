@@ -1017,7 +1017,7 @@ pub fn plain_trial_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -
         fit_evaluations(&t, &recalibration_parameters(k, m, opts), &[], 1, opts)
     } else {
         let coupled = if opts.coupled_forces { coupled_applied_forces(k, m) } else { Vec::new() };
-        let starts = if coupled.is_empty() { 1 } else { 1 + COUPLED_SCALES.len() };
+        let starts = if coupled.is_empty() { 1 } else { 1 + coupled_scales(&coupled).len() };
         starts * fit_trial_scanning_evaluations(&t, &trial_parameters(k, m), &TRIAL_REFINE, &plain_trial_scan(k, opts), opts)
     }
 }
@@ -1027,6 +1027,20 @@ pub fn plain_trial_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -
 /// is the first start). ±12 % covers session 63's 7 % (gear pair 10341) with room; steps of
 /// 3 % keep the start inside a valley about ±10 % wide.
 pub const COUPLED_SCALES: [f64; 8] = [0.88, 0.91, 0.94, 0.97, 1.03, 1.06, 1.09, 1.12];
+
+/// The factors by which [`LoopOptions::coupled_forces`] also scales an applied *unbalance*
+/// for a misalignment's trial, below [`COUPLED_SCALES`]: applied first without the
+/// misalignment, an unbalance takes up the shaft-rate modulation of the bearing lines the
+/// misalignment makes, not only its share of the 1× line, and was fitted 16 % and 55 % high
+/// (session 65, docs/loop-notebook.md "the reverse order"). Steps of 10 % down to half.
+pub const REVERSE_COUPLED_SCALES: [f64; 4] = [0.5, 0.6, 0.7, 0.8];
+
+/// The scales of a coupled trial's extra starts ([`coupled_starts`]): [`COUPLED_SCALES`], then
+/// [`REVERSE_COUPLED_SCALES`] too where the applied force is an unbalance.
+fn coupled_scales(coupled: &[Param]) -> Vec<f64> {
+    let reverse = if coupled.contains(&Param::UnbalanceKgM) { &REVERSE_COUPLED_SCALES[..] } else { &[] };
+    COUPLED_SCALES.iter().chain(reverse).copied().collect()
+}
 
 /// The shaft (its index; the first unless one is named) an unbalance or a misalignment that
 /// is on in `m` acts on; None for any other effect, or one that is off.
@@ -1058,9 +1072,9 @@ pub fn coupled_applied_forces(k: EffectKind, m: &Machine) -> Vec<Param> {
 }
 
 /// The starts of a coupled trial ([`LoopOptions::coupled_forces`]): `t` as it is, then `t`
-/// with every one of `coupled` scaled by each of [`COUPLED_SCALES`].
+/// with every one of `coupled` scaled by each of [`coupled_scales`].
 fn coupled_starts(t: &Machine, coupled: &[Param]) -> Vec<Machine> {
-    let scaled = COUPLED_SCALES.iter().map(|s| {
+    let scaled = coupled_scales(coupled).into_iter().map(|s| {
         let mut u = t.clone();
         for p in coupled {
             if let Some(v) = p.get(t) {
@@ -2971,6 +2985,12 @@ mod tests {
         let mut u = crate::model::preset("mfs_healthy").unwrap();
         u.effects.enable(Unbalance);
         assert_eq!(coupled_applied_forces(Misalignment, &u), vec![Param::UnbalanceKgM]);
+        // There the unbalance also starts at half to 0.8 of its value (after the nine).
+        Param::UnbalanceKgM.set(&mut u, 4.0e-3);
+        let reverse: Vec<f64> = coupled_starts(&switched_on(&u, Misalignment), &[Param::UnbalanceKgM]).iter().map(|t| Param::UnbalanceKgM.get(t).unwrap() / 4.0e-3).collect();
+        assert_eq!(reverse.len(), 1 + COUPLED_SCALES.len() + REVERSE_COUPLED_SCALES.len());
+        assert!((reverse[1] - 0.88).abs() < 1e-9 && (reverse[9] - 0.5).abs() < 1e-9 && (reverse[12] - 0.8).abs() < 1e-9, "{reverse:?}");
+        assert_eq!(plain_trial_evaluations(&u, Misalignment, &LoopOptions::default()), 13 * plain_trial_evaluations(&u, Misalignment, &LoopOptions { coupled_forces: false, ..LoopOptions::default() }));
         // The starts: the applied value first, then ±3 … 12 %, the 1× kept at its ratio.
         let starts = coupled_starts(&switched_on(&m, Unbalance), &[Param::Misalignment2xN]);
         let forces: Vec<f64> = starts.iter().map(|t| Param::Misalignment2xN.get(t).unwrap()).collect();
