@@ -197,6 +197,49 @@ fn an_unbalance_is_found_beside_a_misalignment_fitted_high_when_the_forces_are_f
     assert!(last <= mean + 2.0 * sd, "the last round's objective {last:.2} above the true machine's {mean:.2} + 2 × {sd:.2}");
 }
 
+/// The reverse order (session 65): an unbalance applied first, without the weaker misalignment
+/// beside it, takes up the shaft-rate modulation the misalignment makes and is fitted far high;
+/// one of session 65's machines (gear base, unbalance 3.0e-3 kg·m, misalignment 10 / 2.5 N,
+/// 12 dB, seed 6503) had it at 4.642e-3 (55 % high) after the loop's first round, and the round
+/// after, whose coupled trial started the unbalance at ±12 % of that only, answered "nothing
+/// significant". Since session 66 the misalignment's trial also starts the applied unbalance at
+/// 0.5–0.8 of it (docs/loop-notebook.md "Session 66"): that round, from the model with the
+/// unbalance on (not applied by the loop, so not calibrated), finds the misalignment and carries
+/// the unbalance back near its truth, through stage 2's re-fit, for applying the trial.
+#[test]
+fn a_misalignment_is_found_beside_an_unbalance_fitted_high_without_it() {
+    use twinscope::compare::{run_loop, Param};
+    use EffectKind::{Misalignment, Noise, Unbalance};
+    let base = model::preset(GEAR).unwrap();
+    let mut truth = base.clone();
+    for k in [Unbalance, Misalignment, Noise] {
+        truth.effects.enable(k);
+    }
+    Param::UnbalanceKgM.set(&mut truth, 3.0e-3);
+    let mis = truth.effects.misalignment.as_mut().unwrap();
+    (mis.force_2x_n, mis.force_1x_n) = (10.0, 2.5);
+    truth.effects.noise.as_mut().unwrap().snr_db = 12.0;
+    (truth.seed, truth.duration_s) = (6503, RECORD_S);
+    let measured = model::simulate(&truth).unwrap();
+    let mut model_m = base.clone();
+    for k in [Unbalance, Noise] {
+        model_m.effects.enable(k);
+    }
+    Param::UnbalanceKgM.set(&mut model_m, 4.642e-3);
+    model_m.effects.noise.as_mut().unwrap().snr_db = 12.0;
+    let opts = LoopOptions::default();
+    assert!(opts.coupled_forces, "the default since session 64");
+    let (_, history, d) = run_loop(&model_m, &measured, 1, &opts, &|_, _| true).unwrap();
+    eprintln!("reverse order, seed 6503: {}", history[0].verdict);
+    assert_eq!(d.best, Some(Misalignment), "{}", history[0].verdict);
+    let t = d.trials.iter().find(|t| t.effect == Misalignment).unwrap();
+    let value = |p: Param| t.parameter.iter().chain(t.extra_parameters.iter()).find(|x| x.0 == p).map(|x| x.1);
+    let force = value(Param::Misalignment2xN).unwrap();
+    let unbalance = value(Param::UnbalanceKgM).expect("the trial carries the applied unbalance it was fitted with");
+    assert!((force / 10.0 - 1.0).abs() < 0.15, "misalignment {force:.2} N for 10");
+    assert!((unbalance / 3.0e-3 - 1.0).abs() < 0.15, "unbalance {unbalance:.3e} kg·m for 3.0e-3");
+}
+
 fn assert_control(preset: &str, seed: u64) {
     let r = run(preset, None, seed, DRAWN);
     eprintln!("control on {preset}, seed {seed}: SNR {:.1} dB; objective / floor {:.2}; {}", r.snr_db, r.calibrated_objective() / r.floor_objective, r.verdict);

@@ -386,12 +386,15 @@ pub struct LoopOptions {
     /// periodic force on the same shaft sharing a harmonic with it is already applied (an
     /// unbalance's 1× is also a misalignment's weaker 1×) fits the new force at the applied
     /// one's amplitude and at ±3, 6, 9 and 12 % of it ([`super::diagnose::COUPLED_SCALES`],
-    /// nine plain fits in parallel), and keeps the lowest; the trial carries the applied
+    /// nine plain fits in parallel; an applied unbalance, for a misalignment's trial, also at
+    /// 0.5, 0.6, 0.7 and 0.8 of it, [`super::diagnose::REVERSE_COUPLED_SCALES`]: without the
+    /// misalignment it takes up the shaft-rate modulation too and is fitted up to 55 % high,
+    /// session 65), and keeps the lowest; the trial carries the applied
     /// amplitude, so applying it sets both. Applied first, a force takes up part of the
     /// other's shared line, and a force's valley is narrow: with a misalignment 7 % high the
     /// unbalance's ±10 % valley was gone (session 63, gear pair 10341,
-    /// docs/loop-notebook.md). Costs eight more plain trials of that force, in rounds where
-    /// such a force is applied only. Default: on since session 64, by the rule written before
+    /// docs/loop-notebook.md). Costs eight more plain trials of that force (twelve for a
+    /// misalignment beside an applied unbalance), in rounds where such a force is applied only. Default: on since session 64, by the rule written before
     /// its runs (docs/loop-notebook.md "Session 64"): on four never-run misalignment +
     /// unbalance pairs it found all eight hidden effects against the search's five without it
     /// (the unbalance missed three times beside a misalignment 14–19 % off), no false claim.

@@ -1339,7 +1339,13 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                     // a fine-cell win there is this trial's too.
                     let mut fine_cell_won = t1.fine_cell_won.clone();
                     add_missing(&mut fine_cell_won, &f2.fine_cell_won);
-                    (EffectTrial { from_uncalibrated: t1.from_uncalibrated, fine_cell_won, ..make_trial(t1.effect, &fm2, &f2, &refined_and(&released)) }, fm2)
+                    // The re-fit carries what the first fit carried as well (a coupled trial's
+                    // applied force, at the start it was fitted from), or applying the trial would
+                    // leave that force where the model had it.
+                    let mut carried = refined_and(&released);
+                    let own = trial_parameters(t1.effect, m);
+                    add_missing(&mut carried, &t1.extra_parameters.iter().map(|x| x.0).filter(|p| !own.contains(p)).collect::<Vec<_>>());
+                    (EffectTrial { from_uncalibrated: t1.from_uncalibrated, fine_cell_won, ..make_trial(t1.effect, &fm2, &f2, &carried) }, fm2)
                 }
                 _ => (t1, fm),
             };
