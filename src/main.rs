@@ -265,6 +265,11 @@ struct SearchArgs {
     /// "Coupled forces").
     #[arg(long)]
     no_coupled_forces: bool,
+    /// Of a coupled trial's starts (see --no-coupled-forces), how many are fitted in full:
+    /// each start scans the new force on its grid, and the starts with the lowest grid minima
+    /// go on to the golden section; 0 fits every start in full (sessions 64–66).
+    #[arg(long, value_name = "N", default_value_t = twinscope::compare::LoopOptions::default().coupled_refined_starts)]
+    coupled_refined_starts: usize,
     /// Experimental near-floor rule: between 1.2 × the seed floor and the floor margin's ratio,
     /// the best trial is a finding too when it explains ≥ 80 % of the error above the floor,
     /// switching its effect off costs ≥ 50 %, no trial is tied with it and it places no
@@ -474,7 +479,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         if let Some(w) = self.domain_weights {

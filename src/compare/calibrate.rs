@@ -388,17 +388,26 @@ pub struct LoopOptions {
     /// one's amplitude and at ±3, 6, 9 and 12 % of it ([`super::diagnose::COUPLED_SCALES`],
     /// nine plain fits in parallel; an applied unbalance, for a misalignment's trial, also at
     /// 0.5, 0.6, 0.7 and 0.8 of it, [`super::diagnose::REVERSE_COUPLED_SCALES`]: without the
-    /// misalignment it takes up the shaft-rate modulation too and is fitted up to 55 % high,
-    /// session 65), and keeps the lowest; the trial carries the applied
+    /// misalignment it takes up the shaft-rate modulation too and was fitted 16 %, 55 % and
+    /// 90 % high, sessions 65–66), and keeps the lowest; the trial carries the applied
     /// amplitude, so applying it sets both. Applied first, a force takes up part of the
     /// other's shared line, and a force's valley is narrow: with a misalignment 7 % high the
     /// unbalance's ±10 % valley was gone (session 63, gear pair 10341,
-    /// docs/loop-notebook.md). Costs eight more plain trials of that force (twelve for a
-    /// misalignment beside an applied unbalance), in rounds where such a force is applied only. Default: on since session 64, by the rule written before
-    /// its runs (docs/loop-notebook.md "Session 64"): on four never-run misalignment +
-    /// unbalance pairs it found all eight hidden effects against the search's five without it
-    /// (the unbalance missed three times beside a misalignment 14–19 % off), no false claim.
+    /// docs/loop-notebook.md). Every start scans the new force on its grid; only the
+    /// [`LoopOptions::coupled_refined_starts`] most promising go on to the golden section.
+    /// Runs in rounds where such a force is applied only. Default: on since session 64, by
+    /// the rule written before its runs (docs/loop-notebook.md "Session 64"): on four
+    /// never-run misalignment + unbalance pairs it found all eight hidden effects against the
+    /// search's five without it (the unbalance missed three times beside a misalignment
+    /// 14–19 % off), no false claim.
     pub coupled_forces: bool,
+    /// Of a coupled trial's starts ([`LoopOptions::coupled_forces`]), how many are fitted in
+    /// full: every start scans the new force's amplitude on its grid ([`scan_minimum`]), and
+    /// the starts with the lowest grid minima (in their order among the starts) go on to the
+    /// golden section and the noise level's re-fit, their grids read again from the
+    /// integration cache; 0 fits every start in full (sessions 64–66). The grid is half of a
+    /// plain trial's evaluations, so this about halves a coupled trial's cost.
+    pub coupled_refined_starts: usize,
     /// The near-floor rule ([`super::diagnose::near_floor_finding`]): in a round whose
     /// calibrated objective is at least 1.2 × its seed floor (the ratio of a 0.2 margin) but
     /// below `floor_margin`'s ratio, the best trial is a finding too when it explains at least
@@ -662,7 +671,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: true, coupled_refined_starts: default_coupled_refined_starts(), near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 
@@ -997,6 +1006,46 @@ pub fn fit_scanning(m: &Machine, reference: &Reference, params: &[Param], scan: 
     fit_impl(m, reference, params, &[], scan, sweeps, opts, progress)
 }
 
+/// The points of a scan's grid over `[a, b]` (on the search scale): `2n` cell centres.
+fn scan_points(a: f64, b: f64, n: usize) -> Vec<f64> {
+    (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect()
+}
+
+/// The lowest objective on the grid a fit scanning `p` ([`fit_scanning`],
+/// [`fit_trial_scanning`]) evaluates first from `m` when `p` is its first parameter: the same
+/// points over `p`'s full range, evaluated in parallel and counted in `progress`
+/// ([`scan_evaluations`]), so the fit that follows finds their integrations in the cache. A
+/// start's promise without its golden section ([`LoopOptions::coupled_refined_starts`]); +∞
+/// when `m` lacks `p` or no point could be evaluated.
+pub fn scan_minimum(m: &Machine, reference: &Reference, p: Param, opts: &LoopOptions, progress: &LoopProgress) -> f64 {
+    if p.get(m).is_none() {
+        return f64::INFINITY;
+    }
+    let (lo, hi, log) = p.bounds(m);
+    let grid = scan_points(to_search_scale(lo, log), to_search_scale(hi, log), line_evaluations(opts));
+    grid.par_iter()
+        .map(|&u| {
+            if !progress.tick() {
+                return f64::INFINITY;
+            }
+            let mut t = m.clone();
+            p.set(&mut t, from_search_scale(u, log));
+            evaluate(&t, reference, opts).map_or(f64::INFINITY, |(c, _)| objective(&c, &opts.weights))
+        })
+        .reduce(|| f64::INFINITY, f64::min)
+}
+
+/// Model evaluations [`scan_minimum`] makes (for a machine that has the parameter).
+pub fn scan_evaluations(opts: &LoopOptions) -> usize {
+    2 * line_evaluations(opts)
+}
+
+/// [`LoopOptions::coupled_refined_starts`]' default: three of a coupled trial's nine or
+/// thirteen starts fitted in full (session 67).
+fn default_coupled_refined_starts() -> usize {
+    3
+}
+
 /// Half-width of a trial's local refinement bracket, as a share of the search range ([`fit_trial`]).
 const REFINE_HALF_WIDTH: f64 = 0.25;
 
@@ -1116,7 +1165,7 @@ fn fit_impl(m: &Machine, reference: &Reference, params: &[Param], refine: &[Para
                     // a second start, kept only when it ends lower.
                     coarse_cell = Some((a, b, u0, j0));
                 }
-                let grid: Vec<f64> = (0..2 * n).map(|i| a + (b - a) * (i as f64 + 0.5) / (2 * n) as f64).collect();
+                let grid = scan_points(a, b, n);
                 let scanned: Vec<Option<(f64, Comparison, f64)>> = grid.par_iter().map(|&u| evaluate_at(u)).collect();
                 evals += grid.len();
                 let js: Vec<f64> = scanned.iter().map(|r| r.as_ref().map_or(f64::INFINITY, |r| r.0)).collect();

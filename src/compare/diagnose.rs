@@ -2,7 +2,7 @@
 //! evidence in the residual map for that effect's signature with a trial — switch it on, fit
 //! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
 
-use super::calibrate::{at_search_bound, calibration_parameters, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, objective, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param, SHORT_EXPLAINED};
+use super::calibrate::{at_search_bound, calibration_parameters, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, objective, scan_evaluations, scan_minimum, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param, SHORT_EXPLAINED};
 use super::residual::{residual_map, ResidualMap};
 use super::{Comparison, Reference};
 use crate::kinematics::CharacteristicFrequency;
@@ -1018,8 +1018,33 @@ pub fn plain_trial_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -
     } else {
         let coupled = if opts.coupled_forces { coupled_applied_forces(k, m) } else { Vec::new() };
         let starts = if coupled.is_empty() { 1 } else { 1 + coupled_scales(&coupled).len() };
-        starts * fit_trial_scanning_evaluations(&t, &trial_parameters(k, m), &TRIAL_REFINE, &plain_trial_scan(k, opts), opts)
+        let scan = plain_trial_scan(k, opts);
+        let full = fit_trial_scanning_evaluations(&t, &trial_parameters(k, m), &TRIAL_REFINE, &scan, opts);
+        match refined_coupled_starts(starts, &scan, opts) {
+            Some(refined) => starts * scan_evaluations(opts) + refined * full,
+            None => starts * full,
+        }
     }
+}
+
+/// How many of a coupled trial's `starts` are fitted in full after each start's grid
+/// ([`LoopOptions::coupled_refined_starts`]); None when every start is fitted in full without
+/// a grid of its own first: the option is 0 or at least `starts`, or the trial scans no
+/// force (`scan`, see [`plain_trial_scan`]).
+fn refined_coupled_starts(starts: usize, scan: &[Param], opts: &LoopOptions) -> Option<usize> {
+    let n = opts.coupled_refined_starts;
+    (n > 0 && n < starts && !scan.is_empty()).then_some(n)
+}
+
+/// The indices of the `n` lowest of `minima`, in ascending index order (among equals the
+/// earlier; a NaN counts as +∞).
+fn lowest_indices(minima: &[f64], n: usize) -> Vec<usize> {
+    let key = |i: usize| if minima[i].is_nan() { f64::INFINITY } else { minima[i] };
+    let mut order: Vec<usize> = (0..minima.len()).collect();
+    order.sort_by(|&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
+    order.truncate(n);
+    order.sort_unstable();
+    order
 }
 
 /// The factors by which [`LoopOptions::coupled_forces`] scales an applied force's amplitude
@@ -1260,7 +1285,15 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
                     return plain_fit(k, switched_on(&cal_m, k), &scan, &TRIAL_REFINE);
                 }
                 let reported = refined_and(&coupled);
-                let fits: Vec<TrialOutcome> = coupled_starts(&switched_on(&cal_m, k), &coupled).into_par_iter().map(|t| plain_fit(k, t, &scan, &reported)).collect();
+                let mut starts = coupled_starts(&switched_on(&cal_m, k), &coupled);
+                // With `coupled_refined_starts`, each start's grid first, and only the most
+                // promising starts fitted in full (their grids then come from the cache).
+                if let (Some(n), Some(&force)) = (refined_coupled_starts(starts.len(), &scan, opts), scan.first()) {
+                    let minima: Vec<f64> = starts.par_iter().map(|t| scan_minimum(t, measured, force, opts, progress)).collect();
+                    let keep = lowest_indices(&minima, n);
+                    starts = starts.into_iter().enumerate().filter(|(i, _)| keep.contains(i)).map(|(_, t)| t).collect();
+                }
+                let fits: Vec<TrialOutcome> = starts.into_par_iter().map(|t| plain_fit(k, t, &scan, &reported)).collect();
                 lowest_outcome(fits)
             };
             // The plain trial: a recalibrating one from the uncalibrated values, any other from
@@ -2996,7 +3029,11 @@ mod tests {
         let reverse: Vec<f64> = coupled_starts(&switched_on(&u, Misalignment), &[Param::UnbalanceKgM]).iter().map(|t| Param::UnbalanceKgM.get(t).unwrap() / 4.0e-3).collect();
         assert_eq!(reverse.len(), 1 + COUPLED_SCALES.len() + REVERSE_COUPLED_SCALES.len());
         assert!((reverse[1] - 0.88).abs() < 1e-9 && (reverse[9] - 0.5).abs() < 1e-9 && (reverse[12] - 0.8).abs() < 1e-9, "{reverse:?}");
-        assert_eq!(plain_trial_evaluations(&u, Misalignment, &LoopOptions::default()), 13 * plain_trial_evaluations(&u, Misalignment, &LoopOptions { coupled_forces: false, ..LoopOptions::default() }));
+        let every_start = LoopOptions { coupled_refined_starts: 0, ..LoopOptions::default() };
+        let plain = plain_trial_evaluations(&u, Misalignment, &LoopOptions { coupled_forces: false, ..LoopOptions::default() });
+        assert_eq!(plain_trial_evaluations(&u, Misalignment, &every_start), 13 * plain);
+        // By default each start's grid, then three starts in full.
+        assert_eq!(plain_trial_evaluations(&u, Misalignment, &LoopOptions::default()), 13 * scan_evaluations(&every_start) + 3 * plain);
         // The starts: the applied value first, then ±3 … 12 %, the 1× kept at its ratio.
         let starts = coupled_starts(&switched_on(&m, Unbalance), &[Param::Misalignment2xN]);
         let forces: Vec<f64> = starts.iter().map(|t| Param::Misalignment2xN.get(t).unwrap()).collect();
@@ -3005,11 +3042,33 @@ mod tests {
         assert!((forces[1] - 0.88 * 27.3).abs() < 1e-9 && (forces[8] - 1.12 * 27.3).abs() < 1e-9, "{forces:?}");
         let mis = |t: &Machine| t.effects.misalignment.clone().unwrap();
         assert!(starts.iter().all(|t| (mis(t).force_1x_n / mis(t).force_2x_n - mis(&m).force_1x_n / mis(&m).force_2x_n).abs() < 1e-12 && t.effects.is_on(Unbalance)));
-        // The count: nine plain trials with the option (the default), one without.
+        // The count: nine plain trials with the option and every start in full, one without;
+        // nine grids and three plain trials by default; nine plain trials where the force is
+        // not scanned (no grid to choose by) or every start is kept anyway.
         let (on, off) = (LoopOptions::default(), LoopOptions { coupled_forces: false, ..LoopOptions::default() });
-        assert!(on.coupled_forces);
-        assert_eq!(plain_trial_evaluations(&m, Unbalance, &on), 9 * plain_trial_evaluations(&m, Unbalance, &off));
+        assert!(on.coupled_forces && on.coupled_refined_starts == 3);
+        let plain = plain_trial_evaluations(&m, Unbalance, &off);
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &every_start), 9 * plain);
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &on), 9 * scan_evaluations(&on) + 3 * plain);
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &LoopOptions { coupled_refined_starts: 9, ..on.clone() }), 9 * plain);
+        let unscanned = LoopOptions { scan_force_amplitudes: false, ..on.clone() };
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &unscanned), 9 * plain_trial_evaluations(&m, Unbalance, &LoopOptions { coupled_forces: false, ..unscanned.clone() }));
         assert_eq!(plain_trial_evaluations(&m, LoadZone, &on), plain_trial_evaluations(&m, LoadZone, &off));
+    }
+
+    #[test]
+    fn a_coupled_trial_fits_in_full_the_starts_with_the_lowest_grid_minima_in_their_order() {
+        assert_eq!(lowest_indices(&[5.0, 1.0, 4.0, 2.0, 3.0], 3), vec![1, 3, 4]);
+        // Among equals the earlier start; a NaN (or +∞: no point evaluated) comes last.
+        assert_eq!(lowest_indices(&[2.0, f64::NAN, 1.0, 2.0, f64::INFINITY], 2), vec![0, 2]);
+        assert_eq!(lowest_indices(&[f64::NAN, f64::INFINITY, 7.0], 2), vec![0, 2]);
+        assert_eq!(lowest_indices(&[1.0, 2.0], 3), vec![0, 1]);
+        assert!(lowest_indices(&[], 3).is_empty());
+        let opts = LoopOptions::default();
+        assert_eq!(refined_coupled_starts(9, &[Param::UnbalanceKgM], &opts), Some(3));
+        assert_eq!(refined_coupled_starts(3, &[Param::UnbalanceKgM], &opts), None);
+        assert_eq!(refined_coupled_starts(9, &[], &opts), None);
+        assert_eq!(refined_coupled_starts(9, &[Param::UnbalanceKgM], &LoopOptions { coupled_refined_starts: 0, ..opts }), None);
     }
 
     #[test]
