@@ -260,14 +260,15 @@ struct SearchArgs {
     joint_trials: bool,
     /// Fit the trial of an unbalance or a misalignment where the other is already applied on
     /// the same shaft at the applied force's amplitude only. By default it is also fitted at
-    /// ±3–12 % of it (an applied unbalance also at 0.5–0.8 of it) and the lowest kept (the two
+    /// ±3–12 % of it (an applied unbalance also at 0.5–0.8 and 1.2–1.4 of it) and the lowest kept (the two
     /// share the 1× line, and the force applied first takes up part of the other's: README
     /// "Coupled forces").
     #[arg(long)]
     no_coupled_forces: bool,
-    /// Of a coupled trial's starts (see --no-coupled-forces), how many are fitted in full:
-    /// each start scans the new force on its grid, and the starts with the lowest grid minima
-    /// go on to the golden section; 0 fits every start in full (sessions 64–66).
+    /// Experimental: of a coupled trial's starts (see --no-coupled-forces), fit only the N
+    /// with the lowest grid minima in full (each start scans the new force on its grid
+    /// first); 0, the default, fits every start in full. 3 saves about a fifth of such a
+    /// round and lost a misalignment's value on a seen machine (README "Coupled forces").
     #[arg(long, value_name = "N", default_value_t = twinscope::compare::LoopOptions::default().coupled_refined_starts)]
     coupled_refined_starts: usize,
     /// Experimental near-floor rule: between 1.2 × the seed floor and the floor margin's ratio,

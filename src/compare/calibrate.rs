@@ -387,26 +387,27 @@ pub struct LoopOptions {
     /// unbalance's 1× is also a misalignment's weaker 1×) fits the new force at the applied
     /// one's amplitude and at ±3, 6, 9 and 12 % of it ([`super::diagnose::COUPLED_SCALES`],
     /// nine plain fits in parallel; an applied unbalance, for a misalignment's trial, also at
-    /// 0.5, 0.6, 0.7 and 0.8 of it, [`super::diagnose::REVERSE_COUPLED_SCALES`]: without the
-    /// misalignment it takes up the shaft-rate modulation too and was fitted 16 %, 55 % and
-    /// 90 % high, sessions 65–66), and keeps the lowest; the trial carries the applied
+    /// 0.5–0.8 and 1.2–1.4 of it, [`super::diagnose::REVERSE_COUPLED_SCALES`]: without the
+    /// misalignment it takes up the shaft-rate modulation and the misalignment's 1× too, and
+    /// was fitted 16 %, 55 % and 90 % high and 21 % low, sessions 65–66), and keeps the
+    /// lowest; the trial carries the applied
     /// amplitude, so applying it sets both. Applied first, a force takes up part of the
     /// other's shared line, and a force's valley is narrow: with a misalignment 7 % high the
     /// unbalance's ±10 % valley was gone (session 63, gear pair 10341,
-    /// docs/loop-notebook.md). Every start scans the new force on its grid; only the
-    /// [`LoopOptions::coupled_refined_starts`] most promising go on to the golden section.
-    /// Runs in rounds where such a force is applied only. Default: on since session 64, by
+    /// docs/loop-notebook.md). Runs in rounds where such a force is applied only. Default: on since session 64, by
     /// the rule written before its runs (docs/loop-notebook.md "Session 64"): on four
     /// never-run misalignment + unbalance pairs it found all eight hidden effects against the
     /// search's five without it (the unbalance missed three times beside a misalignment
     /// 14–19 % off), no false claim.
     pub coupled_forces: bool,
     /// Of a coupled trial's starts ([`LoopOptions::coupled_forces`]), how many are fitted in
-    /// full: every start scans the new force's amplitude on its grid ([`scan_minimum`]), and
-    /// the starts with the lowest grid minima (in their order among the starts) go on to the
-    /// golden section and the noise level's re-fit, their grids read again from the
-    /// integration cache; 0 fits every start in full (sessions 64–66). The grid is half of a
-    /// plain trial's evaluations, so this about halves a coupled trial's cost.
+    /// full (experimental): every start scans the new force's amplitude on its grid
+    /// ([`scan_minimum`]), and the starts with the lowest grid minima (in their order among
+    /// the starts) go on to the golden section and the noise level's re-fit, their grids read
+    /// again from the integration cache; 0 fits every start in full. With 3, a round with an
+    /// applied force took about 20 % less time, but on session 66's machine A the start that
+    /// wins after its golden section was not among the three best grids (a grid cell is wider
+    /// than the force's valley) and the misalignment came out 6.1 N for 8.0. Default: 0.
     pub coupled_refined_starts: usize,
     /// The near-floor rule ([`super::diagnose::near_floor_finding`]): in a round whose
     /// calibrated objective is at least 1.2 × its seed floor (the ratio of a 0.2 margin) but
@@ -1040,10 +1041,11 @@ pub fn scan_evaluations(opts: &LoopOptions) -> usize {
     2 * line_evaluations(opts)
 }
 
-/// [`LoopOptions::coupled_refined_starts`]' default: three of a coupled trial's nine or
-/// thirteen starts fitted in full (session 67).
+/// [`LoopOptions::coupled_refined_starts`]' default: every start of a coupled trial fitted in
+/// full. Three chosen by their grids lost a misalignment's value on session 66's machine A
+/// (docs/loop-notebook.md "Session 67").
 fn default_coupled_refined_starts() -> usize {
-    3
+    0
 }
 
 /// Half-width of a trial's local refinement bracket, as a share of the search range ([`fit_trial`]).

@@ -1054,11 +1054,13 @@ fn lowest_indices(minima: &[f64], n: usize) -> Vec<usize> {
 pub const COUPLED_SCALES: [f64; 8] = [0.88, 0.91, 0.94, 0.97, 1.03, 1.06, 1.09, 1.12];
 
 /// The factors by which [`LoopOptions::coupled_forces`] also scales an applied *unbalance*
-/// for a misalignment's trial, below [`COUPLED_SCALES`]: applied first without the
+/// for a misalignment's trial, beyond [`COUPLED_SCALES`]: applied first without the
 /// misalignment, an unbalance takes up the shaft-rate modulation of the bearing lines the
-/// misalignment makes, not only its share of the 1× line, and was fitted 16 % and 55 % high
-/// (session 65, docs/loop-notebook.md "the reverse order"). Steps of 10 % down to half.
-pub const REVERSE_COUPLED_SCALES: [f64; 4] = [0.5, 0.6, 0.7, 0.8];
+/// misalignment makes and the misalignment's own 1×, which adds to its line or takes from
+/// it: it was fitted 16 %, 55 % and 90 % high (sessions 65–66, docs/loop-notebook.md "the
+/// reverse order") and 21 % low (session 66's drawn machine 6613; the high starts since
+/// session 67). Steps of 10 % down to half, and up to 1.4.
+pub const REVERSE_COUPLED_SCALES: [f64; 7] = [0.5, 0.6, 0.7, 0.8, 1.2, 1.3, 1.4];
 
 /// The scales of a coupled trial's extra starts ([`coupled_starts`]): [`COUPLED_SCALES`], then
 /// [`REVERSE_COUPLED_SCALES`] too where the applied force is an unbalance.
@@ -3024,16 +3026,19 @@ mod tests {
         let mut u = crate::model::preset("mfs_healthy").unwrap();
         u.effects.enable(Unbalance);
         assert_eq!(coupled_applied_forces(Misalignment, &u), vec![Param::UnbalanceKgM]);
-        // There the unbalance also starts at half to 0.8 of its value (after the nine).
+        // There the unbalance also starts at half to 0.8 of its value and at 1.2 to 1.4 (after
+        // the nine).
         Param::UnbalanceKgM.set(&mut u, 4.0e-3);
         let reverse: Vec<f64> = coupled_starts(&switched_on(&u, Misalignment), &[Param::UnbalanceKgM]).iter().map(|t| Param::UnbalanceKgM.get(t).unwrap() / 4.0e-3).collect();
-        assert_eq!(reverse.len(), 1 + COUPLED_SCALES.len() + REVERSE_COUPLED_SCALES.len());
-        assert!((reverse[1] - 0.88).abs() < 1e-9 && (reverse[9] - 0.5).abs() < 1e-9 && (reverse[12] - 0.8).abs() < 1e-9, "{reverse:?}");
-        let every_start = LoopOptions { coupled_refined_starts: 0, ..LoopOptions::default() };
+        assert_eq!(reverse.len(), 16);
+        assert!((reverse[1] - 0.88).abs() < 1e-9 && (reverse[9] - 0.5).abs() < 1e-9 && (reverse[12] - 0.8).abs() < 1e-9 && (reverse[13] - 1.2).abs() < 1e-9 && (reverse[15] - 1.4).abs() < 1e-9, "{reverse:?}");
+        let every_start = LoopOptions::default();
+        assert_eq!(every_start.coupled_refined_starts, 0);
         let plain = plain_trial_evaluations(&u, Misalignment, &LoopOptions { coupled_forces: false, ..LoopOptions::default() });
-        assert_eq!(plain_trial_evaluations(&u, Misalignment, &every_start), 13 * plain);
-        // By default each start's grid, then three starts in full.
-        assert_eq!(plain_trial_evaluations(&u, Misalignment, &LoopOptions::default()), 13 * scan_evaluations(&every_start) + 3 * plain);
+        assert_eq!(plain_trial_evaluations(&u, Misalignment, &every_start), 16 * plain);
+        // With three chosen by their grids: each start's grid, then three starts in full.
+        let chosen = LoopOptions { coupled_refined_starts: 3, ..LoopOptions::default() };
+        assert_eq!(plain_trial_evaluations(&u, Misalignment, &chosen), 16 * scan_evaluations(&chosen) + 3 * plain);
         // The starts: the applied value first, then ±3 … 12 %, the 1× kept at its ratio.
         let starts = coupled_starts(&switched_on(&m, Unbalance), &[Param::Misalignment2xN]);
         let forces: Vec<f64> = starts.iter().map(|t| Param::Misalignment2xN.get(t).unwrap()).collect();
@@ -3042,16 +3047,16 @@ mod tests {
         assert!((forces[1] - 0.88 * 27.3).abs() < 1e-9 && (forces[8] - 1.12 * 27.3).abs() < 1e-9, "{forces:?}");
         let mis = |t: &Machine| t.effects.misalignment.clone().unwrap();
         assert!(starts.iter().all(|t| (mis(t).force_1x_n / mis(t).force_2x_n - mis(&m).force_1x_n / mis(&m).force_2x_n).abs() < 1e-12 && t.effects.is_on(Unbalance)));
-        // The count: nine plain trials with the option and every start in full, one without;
-        // nine grids and three plain trials by default; nine plain trials where the force is
-        // not scanned (no grid to choose by) or every start is kept anyway.
+        // The count: nine plain trials with the option (the default, every start in full), one
+        // without; nine grids and three plain trials with three chosen; nine plain trials where
+        // the force is not scanned (no grid to choose by) or every start is kept anyway.
         let (on, off) = (LoopOptions::default(), LoopOptions { coupled_forces: false, ..LoopOptions::default() });
-        assert!(on.coupled_forces && on.coupled_refined_starts == 3);
+        assert!(on.coupled_forces);
         let plain = plain_trial_evaluations(&m, Unbalance, &off);
-        assert_eq!(plain_trial_evaluations(&m, Unbalance, &every_start), 9 * plain);
-        assert_eq!(plain_trial_evaluations(&m, Unbalance, &on), 9 * scan_evaluations(&on) + 3 * plain);
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &on), 9 * plain);
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &chosen), 9 * scan_evaluations(&chosen) + 3 * plain);
         assert_eq!(plain_trial_evaluations(&m, Unbalance, &LoopOptions { coupled_refined_starts: 9, ..on.clone() }), 9 * plain);
-        let unscanned = LoopOptions { scan_force_amplitudes: false, ..on.clone() };
+        let unscanned = LoopOptions { scan_force_amplitudes: false, ..chosen.clone() };
         assert_eq!(plain_trial_evaluations(&m, Unbalance, &unscanned), 9 * plain_trial_evaluations(&m, Unbalance, &LoopOptions { coupled_forces: false, ..unscanned.clone() }));
         assert_eq!(plain_trial_evaluations(&m, LoadZone, &on), plain_trial_evaluations(&m, LoadZone, &off));
     }
@@ -3064,7 +3069,8 @@ mod tests {
         assert_eq!(lowest_indices(&[f64::NAN, f64::INFINITY, 7.0], 2), vec![0, 2]);
         assert_eq!(lowest_indices(&[1.0, 2.0], 3), vec![0, 1]);
         assert!(lowest_indices(&[], 3).is_empty());
-        let opts = LoopOptions::default();
+        let opts = LoopOptions { coupled_refined_starts: 3, ..LoopOptions::default() };
+        assert_eq!(refined_coupled_starts(9, &[Param::UnbalanceKgM], &LoopOptions::default()), None);
         assert_eq!(refined_coupled_starts(9, &[Param::UnbalanceKgM], &opts), Some(3));
         assert_eq!(refined_coupled_starts(3, &[Param::UnbalanceKgM], &opts), None);
         assert_eq!(refined_coupled_starts(9, &[], &opts), None);
