@@ -260,9 +260,9 @@ struct SearchArgs {
     joint_trials: bool,
     /// Fit the trial of an unbalance or a misalignment where the other is already applied on
     /// the same shaft at the applied force's amplitude only. By default it is also fitted at
-    /// ±3–12 % of it (an applied unbalance also at 0.5–0.8 and 1.2–1.4 of it) and the lowest kept (the two
-    /// share the 1× line, and the force applied first takes up part of the other's: README
-    /// "Coupled forces").
+    /// ±3–12 % of it (an applied unbalance also at 0.5–0.8 and 1.2–1.4 of it) and the lowest
+    /// kept (the two share the 1× line, and the force applied first takes up part of the
+    /// other's: README "Coupled forces").
     #[arg(long)]
     no_coupled_forces: bool,
     /// Experimental: of a coupled trial's starts (see --no-coupled-forces), fit only the N

@@ -390,15 +390,14 @@ pub struct LoopOptions {
     /// 0.5–0.8 and 1.2–1.4 of it, [`super::diagnose::REVERSE_COUPLED_SCALES`]: without the
     /// misalignment it takes up the shaft-rate modulation and the misalignment's 1× too, and
     /// was fitted 16 %, 55 % and 90 % high and 21 % low, sessions 65–66), and keeps the
-    /// lowest; the trial carries the applied
-    /// amplitude, so applying it sets both. Applied first, a force takes up part of the
-    /// other's shared line, and a force's valley is narrow: with a misalignment 7 % high the
-    /// unbalance's ±10 % valley was gone (session 63, gear pair 10341,
-    /// docs/loop-notebook.md). Runs in rounds where such a force is applied only. Default: on since session 64, by
-    /// the rule written before its runs (docs/loop-notebook.md "Session 64"): on four
-    /// never-run misalignment + unbalance pairs it found all eight hidden effects against the
-    /// search's five without it (the unbalance missed three times beside a misalignment
-    /// 14–19 % off), no false claim.
+    /// lowest; the trial carries the applied amplitude, so applying it sets both. Applied
+    /// first, a force takes up part of the other's shared line, and a force's valley is
+    /// narrow: with a misalignment 7 % high the unbalance's ±10 % valley was gone (session 63,
+    /// gear pair 10341, docs/loop-notebook.md). Runs in rounds where such a force is applied
+    /// only. Default: on since session 64, by the rule written before its runs
+    /// (docs/loop-notebook.md "Session 64"): on four never-run misalignment + unbalance pairs
+    /// it found all eight hidden effects against the search's five without it (the unbalance
+    /// missed three times beside a misalignment 14–19 % off), no false claim.
     pub coupled_forces: bool,
     /// Of a coupled trial's starts ([`LoopOptions::coupled_forces`]), how many are fitted in
     /// full (experimental): every start scans the new force's amplitude on its grid
