@@ -260,9 +260,9 @@ struct SearchArgs {
     joint_trials: bool,
     /// Fit the trial of an unbalance or a misalignment where the other is already applied on
     /// the same shaft at the applied force's amplitude only. By default it is also fitted at
-    /// ±3–12 % of it (an applied unbalance also at 0.5–0.8 and 1.2–1.4 of it) and the lowest
-    /// kept (the two share the 1× line, and the force applied first takes up part of the
-    /// other's: README "Coupled forces").
+    /// ±3–12 % of it and at 0.5–0.8 and 1.2–1.4 of it (16 fits), and the lowest kept (the
+    /// two share the 1× line, and the force applied first takes up part of the other's:
+    /// README "Coupled forces").
     #[arg(long)]
     no_coupled_forces: bool,
     /// Experimental: of a coupled trial's starts (see --no-coupled-forces), fit only the N
@@ -271,6 +271,12 @@ struct SearchArgs {
     /// round and lost a misalignment's value on a seen machine (README "Coupled forces").
     #[arg(long, value_name = "N", default_value_t = twinscope::compare::LoopOptions::default().coupled_refined_starts)]
     coupled_refined_starts: usize,
+    /// Re-fit an unbalance and a misalignment applied on one shaft by line searches only. By
+    /// default a round's calibration also fits their two amplitudes jointly on a grid (±12 %
+    /// in 3 % steps, then ±2 % in 1 % steps; 104 evaluations): their valley is a narrow
+    /// diagonal that line searches do not follow (README "Coupled forces").
+    #[arg(long)]
+    no_force_pair_grid: bool,
     /// Experimental near-floor rule: between 1.2 × the seed floor and the floor margin's ratio,
     /// the best trial is a finding too when it explains ≥ 80 % of the error above the floor,
     /// switching its effect off costs ≥ 50 %, no trial is tied with it and it places no
@@ -480,7 +486,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         if let Some(w) = self.domain_weights {

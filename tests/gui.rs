@@ -497,6 +497,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
     h.get_by_label("coupled forces: an unbalance or misalignment trial beside the other, applied, fits the two together").click_accesskit();
     h.run_steps(3);
     assert!(!h.state().settings.loop_options(Default::default()).coupled_forces);
+    // The joint grid of an applied force pair: on by default (since session 68) until unticked.
+    assert!(o.force_pair_grid, "on by default");
+    h.get_by_label("force pair grid: an applied unbalance and misalignment on one shaft are re-fitted jointly on a grid").click_accesskit();
+    h.run_steps(3);
+    assert!(!h.state().settings.loop_options(Default::default()).force_pair_grid);
     // The scan of periodic forces: on by default (since session 40) until unticked.
     assert!(o.scan_force_amplitudes);
     h.get_by_label("scan forces: every trial scans an unbalance, misalignment or belt force on a grid").click_accesskit();

@@ -261,6 +261,10 @@ pub struct LoopSpec {
     /// (`LoopOptions::coupled_refined_starts`, experimental; 0: every start). Default: the
     /// library's (0).
     pub coupled_refined_starts: usize,
+    /// A round's calibration also fits an applied unbalance and misalignment on one shaft
+    /// jointly on a grid of their amplitudes (`LoopOptions::force_pair_grid`). Default: the
+    /// library's (on since session 68).
+    pub force_pair_grid: bool,
 }
 
 impl Default for LoopSpec {
@@ -301,6 +305,7 @@ impl Default for LoopSpec {
             joint_trials: o.joint_trials,
             coupled_forces: o.coupled_forces,
             coupled_refined_starts: o.coupled_refined_starts,
+            force_pair_grid: o.force_pair_grid,
         }
     }
 }
@@ -318,7 +323,7 @@ impl LoopSpec {
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
         crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: self.uncalibrated_start_top, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, strength_range: self.strength_range, fine_force_scan: self.fine_force_scan, effect_must_work: self.effect_must_work, recalibrate_roll_off: self.recalibrate_roll_off, joint_trials: self.joint_trials, coupled_forces: self.coupled_forces, coupled_refined_starts: self.coupled_refined_starts, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: self.uncalibrated_start_top, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, strength_range: self.strength_range, fine_force_scan: self.fine_force_scan, effect_must_work: self.effect_must_work, recalibrate_roll_off: self.recalibrate_roll_off, joint_trials: self.joint_trials, coupled_forces: self.coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: self.force_pair_grid, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
@@ -604,7 +609,7 @@ mod tests {
         }
         // Every search option the sample names with a value: a README line dropping its
         // "default" would otherwise pass silently.
-        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "uncalibrated_start_top", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts", "strength_range", "fine_force_scan", "effect_must_work", "recalibrate_roll_off", "joint_trials", "coupled_forces", "coupled_refined_starts"] {
+        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "uncalibrated_start_top", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts", "strength_range", "fine_force_scan", "effect_must_work", "recalibrate_roll_off", "joint_trials", "coupled_forces", "coupled_refined_starts", "force_pair_grid"] {
             assert!(checked.iter().any(|k| k == key), "README's [model_loop] sample states no default for `{key}`: {checked:?}");
         }
     }
@@ -621,6 +626,8 @@ mod tests {
         assert_eq!((o.effect_must_work, o.recalibrate_roll_off, o.joint_trials, o.coupled_forces), (!lib.effect_must_work, !lib.recalibrate_roll_off, !lib.joint_trials, !lib.coupled_forces));
         let chosen = toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"\ncoupled_refined_starts = 3").unwrap().options(&chain).unwrap();
         assert_eq!((lib.coupled_refined_starts, o.coupled_refined_starts, chosen.coupled_refined_starts), (0, 0, 3));
+        let no_grid = toml::from_str::<LoopSpec>(&format!("preset = \"cwru_6205_inner\"\nforce_pair_grid = {}", !lib.force_pair_grid)).unwrap().options(&chain).unwrap();
+        assert_eq!((o.force_pair_grid, no_grid.force_pair_grid), (lib.force_pair_grid, !lib.force_pair_grid));
     }
 
     #[test]

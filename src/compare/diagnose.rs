@@ -2,7 +2,7 @@
 //! evidence in the residual map for that effect's signature with a trial — switch it on, fit
 //! its parameter, re-simulate, measure the error — and rank the effects by error reduction.
 
-use super::calibrate::{at_search_bound, calibration_parameters, calibration_parameters_for, evaluate, fit_evaluations, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, objective, scan_evaluations, scan_minimum, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param, SHORT_EXPLAINED};
+use super::calibrate::{at_search_bound, calibration_parameters, calibration_parameters_for, evaluate, fit_evaluations, fit_force_pair, fit_scanning, fit_trial, fit_trial_evaluations, fit_trial_scanning, fit_trial_scanning_evaluations, fit_with_progress, force_pair_evaluations, objective, scan_evaluations, scan_minimum, DecisionRule, Fit, LoopError, LoopOptions, LoopProgress, Param, SHORT_EXPLAINED};
 use super::residual::{residual_map, ResidualMap};
 use super::{Comparison, Reference};
 use crate::kinematics::CharacteristicFrequency;
@@ -948,7 +948,19 @@ fn look_twice(first: (Machine, Diagnosis), m: &Machine, reference: &Reference, o
 /// The model evaluations of a diagnosis's calibrated start ([`diagnose`]): the calibration of
 /// `m`, the calibrated model's comparison, its seed floor and its scatter.
 pub fn calibration_evaluations(m: &Machine, opts: &LoopOptions) -> usize {
-    fit_evaluations(m, &calibration_parameters_for(m, opts), &[], opts.sweeps, opts) + 1 + FLOOR_SEEDS.len() + SCATTER_SEEDS.len()
+    let params = calibration_parameters_for(m, opts);
+    let pair = if calibrated_force_pair(m, &params, opts).is_some() { force_pair_evaluations() } else { 0 };
+    fit_evaluations(m, &params, &[], opts.sweeps, opts) + pair + 1 + FLOOR_SEEDS.len() + SCATTER_SEEDS.len()
+}
+
+/// The unbalance and misalignment amplitudes a round's calibration also fits jointly
+/// ([`LoopOptions::force_pair_grid`], [`fit_force_pair`]): both forces on, on one shaft, and
+/// both among the calibration's parameters `cal_params` (applied in earlier rounds).
+pub fn calibrated_force_pair(m: &Machine, cal_params: &[Param], opts: &LoopOptions) -> Option<(Param, Param)> {
+    let pair = (Param::UnbalanceKgM, Param::Misalignment2xN);
+    let shaft = shaft_rate_force_shaft(EffectKind::Unbalance, m);
+    let shared = shaft.is_some() && shaft == shaft_rate_force_shaft(EffectKind::Misalignment, m);
+    (opts.force_pair_grid && shared && cal_params.contains(&pair.0) && cal_params.contains(&pair.1)).then_some(pair)
 }
 
 /// The model evaluations of the second start of a trial of effect `k` on machine `m` (without
@@ -1017,7 +1029,7 @@ pub fn plain_trial_evaluations(m: &Machine, k: EffectKind, opts: &LoopOptions) -
         fit_evaluations(&t, &recalibration_parameters(k, m, opts), &[], 1, opts)
     } else {
         let coupled = if opts.coupled_forces { coupled_applied_forces(k, m) } else { Vec::new() };
-        let starts = if coupled.is_empty() { 1 } else { 1 + coupled_scales(&coupled).len() };
+        let starts = if coupled.is_empty() { 1 } else { 1 + coupled_scales().len() };
         let scan = plain_trial_scan(k, opts);
         let full = fit_trial_scanning_evaluations(&t, &trial_parameters(k, m), &TRIAL_REFINE, &scan, opts);
         match refined_coupled_starts(starts, &scan, opts) {
@@ -1053,20 +1065,19 @@ fn lowest_indices(minima: &[f64], n: usize) -> Vec<usize> {
 /// 3 % keep the start inside a valley about ±10 % wide.
 pub const COUPLED_SCALES: [f64; 8] = [0.88, 0.91, 0.94, 0.97, 1.03, 1.06, 1.09, 1.12];
 
-/// The factors by which [`LoopOptions::coupled_forces`] also scales an applied *unbalance*
-/// for a misalignment's trial, beyond [`COUPLED_SCALES`]: applied first without the
-/// misalignment, an unbalance takes up the shaft-rate modulation of the bearing lines the
-/// misalignment makes and the misalignment's own 1×, which adds to its line or takes from
-/// it: it was fitted 16 %, 55 % and 90 % high (sessions 65–66, docs/loop-notebook.md "the
-/// reverse order") and 21 % low (session 66's drawn machine 6613; the high starts since
-/// session 67). Steps of 10 % down to half, and up to 1.4.
-pub const REVERSE_COUPLED_SCALES: [f64; 7] = [0.5, 0.6, 0.7, 0.8, 1.2, 1.3, 1.4];
+/// The factors by which [`LoopOptions::coupled_forces`] also scales an applied force for a
+/// coupled trial, beyond [`COUPLED_SCALES`]: applied first without the other force, either
+/// takes up part of the other's shared 1× line, adding to it or taking from it. An applied
+/// unbalance was fitted 16 %, 55 % and 90 % high and 21 % low (sessions 65–67,
+/// docs/loop-notebook.md "the reverse order"; for a misalignment's trial since sessions 66–67),
+/// an applied misalignment 97 % high (session 67's drawn machine 6712; for an unbalance's
+/// trial since session 68). Steps of 10 % down to half, and up to 1.4.
+pub const WIDE_COUPLED_SCALES: [f64; 7] = [0.5, 0.6, 0.7, 0.8, 1.2, 1.3, 1.4];
 
 /// The scales of a coupled trial's extra starts ([`coupled_starts`]): [`COUPLED_SCALES`], then
-/// [`REVERSE_COUPLED_SCALES`] too where the applied force is an unbalance.
-fn coupled_scales(coupled: &[Param]) -> Vec<f64> {
-    let reverse = if coupled.contains(&Param::UnbalanceKgM) { &REVERSE_COUPLED_SCALES[..] } else { &[] };
-    COUPLED_SCALES.iter().chain(reverse).copied().collect()
+/// [`WIDE_COUPLED_SCALES`].
+fn coupled_scales() -> Vec<f64> {
+    COUPLED_SCALES.iter().chain(&WIDE_COUPLED_SCALES).copied().collect()
 }
 
 /// The shaft (its index; the first unless one is named) an unbalance or a misalignment that
@@ -1101,7 +1112,7 @@ pub fn coupled_applied_forces(k: EffectKind, m: &Machine) -> Vec<Param> {
 /// The starts of a coupled trial ([`LoopOptions::coupled_forces`]): `t` as it is, then `t`
 /// with every one of `coupled` scaled by each of [`coupled_scales`].
 fn coupled_starts(t: &Machine, coupled: &[Param]) -> Vec<Machine> {
-    let scaled = coupled_scales(coupled).into_iter().map(|s| {
+    let scaled = coupled_scales().into_iter().map(|s| {
         let mut u = t.clone();
         for p in coupled {
             if let Some(v) = p.get(t) {
@@ -1169,6 +1180,10 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
         Some(i) => i,
         None => {
             let (machine, fit) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
+            let (machine, fit) = match calibrated_force_pair(m, &cal_params, opts) {
+                Some(pair) => fit_force_pair(&machine, measured, fit, pair, opts, progress)?,
+                None => (machine, fit),
+            };
             let (comparison, _) = evaluate(&machine, measured, opts)?;
             progress.tick();
             let floor = seed_floor(&machine, measured.measured(), &comparison, opts)?;
@@ -3039,26 +3054,54 @@ mod tests {
         // With three chosen by their grids: each start's grid, then three starts in full.
         let chosen = LoopOptions { coupled_refined_starts: 3, ..LoopOptions::default() };
         assert_eq!(plain_trial_evaluations(&u, Misalignment, &chosen), 16 * scan_evaluations(&chosen) + 3 * plain);
-        // The starts: the applied value first, then ±3 … 12 %, the 1× kept at its ratio.
+        // The starts: the applied value first, then ±3 … 12 %, then 0.5–0.8 and 1.2–1.4 of it
+        // (since session 68), the 1× kept at its ratio.
         let starts = coupled_starts(&switched_on(&m, Unbalance), &[Param::Misalignment2xN]);
         let forces: Vec<f64> = starts.iter().map(|t| Param::Misalignment2xN.get(t).unwrap()).collect();
-        assert_eq!(forces.len(), 1 + COUPLED_SCALES.len());
+        assert_eq!(forces.len(), 1 + COUPLED_SCALES.len() + WIDE_COUPLED_SCALES.len());
         assert_eq!(forces[0], 27.3);
         assert!((forces[1] - 0.88 * 27.3).abs() < 1e-9 && (forces[8] - 1.12 * 27.3).abs() < 1e-9, "{forces:?}");
+        assert!((forces[9] - 0.5 * 27.3).abs() < 1e-9 && (forces[15] - 1.4 * 27.3).abs() < 1e-9, "{forces:?}");
         let mis = |t: &Machine| t.effects.misalignment.clone().unwrap();
         assert!(starts.iter().all(|t| (mis(t).force_1x_n / mis(t).force_2x_n - mis(&m).force_1x_n / mis(&m).force_2x_n).abs() < 1e-12 && t.effects.is_on(Unbalance)));
-        // The count: nine plain trials with the option (the default, every start in full), one
-        // without; nine grids and three plain trials with three chosen; nine plain trials where
-        // the force is not scanned (no grid to choose by) or every start is kept anyway.
+        // The count: sixteen plain trials with the option (the default, every start in full),
+        // one without; sixteen grids and three plain trials with three chosen; sixteen plain
+        // trials where the force is not scanned (no grid to choose by) or every start is kept
+        // anyway.
         let (on, off) = (LoopOptions::default(), LoopOptions { coupled_forces: false, ..LoopOptions::default() });
         assert!(on.coupled_forces);
         let plain = plain_trial_evaluations(&m, Unbalance, &off);
-        assert_eq!(plain_trial_evaluations(&m, Unbalance, &on), 9 * plain);
-        assert_eq!(plain_trial_evaluations(&m, Unbalance, &chosen), 9 * scan_evaluations(&chosen) + 3 * plain);
-        assert_eq!(plain_trial_evaluations(&m, Unbalance, &LoopOptions { coupled_refined_starts: 9, ..on.clone() }), 9 * plain);
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &on), 16 * plain);
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &chosen), 16 * scan_evaluations(&chosen) + 3 * plain);
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &LoopOptions { coupled_refined_starts: 16, ..on.clone() }), 16 * plain);
         let unscanned = LoopOptions { scan_force_amplitudes: false, ..chosen.clone() };
-        assert_eq!(plain_trial_evaluations(&m, Unbalance, &unscanned), 9 * plain_trial_evaluations(&m, Unbalance, &LoopOptions { coupled_forces: false, ..unscanned.clone() }));
+        assert_eq!(plain_trial_evaluations(&m, Unbalance, &unscanned), 16 * plain_trial_evaluations(&m, Unbalance, &LoopOptions { coupled_forces: false, ..unscanned.clone() }));
         assert_eq!(plain_trial_evaluations(&m, LoadZone, &on), plain_trial_evaluations(&m, LoadZone, &off));
+    }
+
+    #[test]
+    fn a_calibration_fits_an_applied_unbalance_and_misalignment_on_one_shaft_jointly() {
+        use EffectKind::{Misalignment, Unbalance};
+        let mut m = crate::model::preset("mfs_healthy").unwrap();
+        m.effects.enable(Unbalance);
+        m.effects.enable(Misalignment);
+        let on = LoopOptions { refit_effects: vec![Unbalance, Misalignment], ..LoopOptions::default() };
+        assert!(on.force_pair_grid, "the default since session 68");
+        let pair = Some((Param::UnbalanceKgM, Param::Misalignment2xN));
+        assert_eq!(calibrated_force_pair(&m, &calibration_parameters_for(&m, &on), &on), pair);
+        // The grid's evaluations are counted in the calibration's.
+        let off = LoopOptions { force_pair_grid: false, ..on.clone() };
+        assert_eq!(calibrated_force_pair(&m, &calibration_parameters_for(&m, &off), &off), None);
+        assert_eq!(calibration_evaluations(&m, &on), calibration_evaluations(&m, &off) + force_pair_evaluations());
+        // Not while one of them is not re-fitted by the calibration (not yet applied by the loop).
+        let one = LoopOptions { refit_effects: vec![Misalignment], ..on.clone() };
+        assert_eq!(calibrated_force_pair(&m, &calibration_parameters_for(&m, &one), &one), None);
+        // Nor on two shafts: no shared line.
+        let mut apart = m.clone();
+        apart.effects.misalignment.as_mut().unwrap().shaft = Some("gear".into());
+        assert_eq!(calibrated_force_pair(&apart, &calibration_parameters_for(&apart, &on), &on), None);
+        apart.effects.unbalance.as_mut().unwrap().shaft = Some("gear".into());
+        assert_eq!(calibrated_force_pair(&apart, &calibration_parameters_for(&apart, &on), &on), pair);
     }
 
     #[test]

@@ -94,6 +94,10 @@ pub struct Settings {
     /// Model loop: an unbalance or misalignment trial beside the other, applied on its shaft,
     /// fits the two together (`LoopOptions::coupled_forces`, on since session 64).
     pub loop_coupled_forces: bool,
+    /// Model loop: a round's calibration also fits an applied unbalance and misalignment on one
+    /// shaft jointly on a grid of their amplitudes (`LoopOptions::force_pair_grid`, on since
+    /// session 68).
+    pub loop_force_pair_grid: bool,
     /// Model loop: sweeps of local line searches after every full-range fit
     /// (`LoopOptions::polish_sweeps`; 0 = off, 4 by default since session 44).
     pub loop_polish_sweeps: usize,
@@ -140,6 +144,7 @@ impl Default for Settings {
             loop_recalibrate_roll_off: LoopOptions::default().recalibrate_roll_off,
             loop_joint_trials: LoopOptions::default().joint_trials,
             loop_coupled_forces: LoopOptions::default().coupled_forces,
+            loop_force_pair_grid: LoopOptions::default().force_pair_grid,
             loop_polish_sweeps: LoopOptions::default().polish_sweeps,
             loop_polish_second_starts: LoopOptions::default().polish_second_starts,
             loop_scf_one_normaliser: LoopOptions::default().compare.scf_one_normaliser,
@@ -214,6 +219,7 @@ impl Settings {
             recalibrate_roll_off: self.loop_recalibrate_roll_off,
             joint_trials: self.loop_joint_trials,
             coupled_forces: self.loop_coupled_forces,
+            force_pair_grid: self.loop_force_pair_grid,
             polish_sweeps: self.loop_polish_sweeps,
             polish_second_starts: self.loop_polish_second_starts,
             ..Default::default()
@@ -287,6 +293,7 @@ mod tests {
             loop_recalibrate_roll_off: !LoopOptions::default().recalibrate_roll_off,
             loop_joint_trials: !LoopOptions::default().joint_trials,
             loop_coupled_forces: !LoopOptions::default().coupled_forces,
+            loop_force_pair_grid: !LoopOptions::default().force_pair_grid,
             loop_polish_sweeps: 0,
             loop_polish_second_starts: true,
             loop_scf_one_normaliser: false,
@@ -320,5 +327,6 @@ mod tests {
         assert_ne!(changed.recalibrate_roll_off, LoopOptions::default().recalibrate_roll_off);
         assert_ne!(changed.joint_trials, LoopOptions::default().joint_trials);
         assert_ne!(changed.coupled_forces, LoopOptions::default().coupled_forces);
+        assert_ne!(changed.force_pair_grid, LoopOptions::default().force_pair_grid);
     }
 }
