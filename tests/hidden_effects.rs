@@ -248,6 +248,23 @@ struct ShaftForcesRound {
     model_snr_db: f64,
 }
 
+/// The "measurement" of a shaft-force case: `base` with an unbalance (kg·m), a misalignment
+/// (2×, 1× in N) and noise at `snr_db`, a [`RECORD_S`] record simulated with `seed`.
+fn shaft_forces_record(base: &model::Machine, unbalance_kg_m: f64, misalignment_n: (f64, f64), snr_db: f64, seed: u64) -> twinscope::signal::Signal {
+    use twinscope::compare::Param;
+    use EffectKind::{Misalignment, Noise, Unbalance};
+    let mut truth = base.clone();
+    for k in [Unbalance, Misalignment, Noise] {
+        truth.effects.enable(k);
+    }
+    Param::UnbalanceKgM.set(&mut truth, unbalance_kg_m);
+    let mis = truth.effects.misalignment.as_mut().unwrap();
+    (mis.force_2x_n, mis.force_1x_n) = misalignment_n;
+    truth.effects.noise.as_mut().unwrap().snr_db = snr_db;
+    (truth.seed, truth.duration_s) = (seed, RECORD_S);
+    model::simulate(&truth).unwrap()
+}
+
 /// One round of the default search on `r` chooses the other force, its amplitude within 15 %
 /// of the truth and the applied force the trial carries (for applying it) within 15 % too.
 fn assert_shaft_forces_round(r: ShaftForcesRound) {
@@ -258,16 +275,7 @@ fn assert_shaft_forces_round(r: ShaftForcesRound) {
     let (applied, applied_value) = r.applied;
     let missing = if applied == Unbalance { Misalignment } else { Unbalance };
     let base = model::preset(r.base).unwrap();
-    let mut truth = base.clone();
-    for k in [Unbalance, Misalignment, Noise] {
-        truth.effects.enable(k);
-    }
-    Param::UnbalanceKgM.set(&mut truth, r.unbalance_kg_m);
-    let mis = truth.effects.misalignment.as_mut().unwrap();
-    (mis.force_2x_n, mis.force_1x_n) = r.misalignment_n;
-    truth.effects.noise.as_mut().unwrap().snr_db = r.snr_db;
-    (truth.seed, truth.duration_s) = (r.seed, RECORD_S);
-    let measured = model::simulate(&truth).unwrap();
+    let measured = shaft_forces_record(&base, r.unbalance_kg_m, r.misalignment_n, r.snr_db, r.seed);
     let mut model_m = base.clone();
     for k in [applied, Noise] {
         model_m.effects.enable(k);
@@ -304,16 +312,7 @@ fn the_calibration_fits_an_applied_unbalance_and_misalignment_together_to_their_
     use twinscope::compare::{diagnose, Param};
     use EffectKind::{Misalignment, Noise, Unbalance};
     let base = model::preset(GEAR).unwrap();
-    let mut truth = base.clone();
-    for k in [Unbalance, Misalignment, Noise] {
-        truth.effects.enable(k);
-    }
-    Param::UnbalanceKgM.set(&mut truth, 3.408e-3);
-    let mis = truth.effects.misalignment.as_mut().unwrap();
-    (mis.force_2x_n, mis.force_1x_n) = (11.27, 2.817);
-    truth.effects.noise.as_mut().unwrap().snr_db = 12.9;
-    (truth.seed, truth.duration_s) = (6711, RECORD_S);
-    let measured = model::simulate(&truth).unwrap();
+    let measured = shaft_forces_record(&base, 3.408e-3, (11.27, 2.817), 12.9, 6711);
     let mut model_m = base.clone();
     for k in [Unbalance, Misalignment, Noise] {
         model_m.effects.enable(k);
