@@ -126,7 +126,9 @@ enum Command {
         /// Write the ranking, residual map and history as JSON.
         #[arg(long)]
         json: Option<PathBuf>,
-        /// Write the final machine (with the applied effects) as TOML.
+        /// Write the final machine as TOML: the last round's calibrated machine when that round
+        /// applied nothing (every applied effect re-fitted), else the machine with the last
+        /// applied effect.
         #[arg(long)]
         save_machine: Option<PathBuf>,
         #[command(flatten)]

@@ -100,6 +100,25 @@ fn quick_case(seed: u64, candidates: Vec<EffectKind>) -> (model::Machine, twinsc
 }
 
 #[test]
+fn a_loop_that_adds_nothing_ends_on_its_calibrated_machine() {
+    // The model's resonance 12 % high and nothing missing: the one round calibrates it back
+    // and applies nothing. The machine the loop returns (the CLI's --save-machine, a batch job's
+    // model_loop_final_machine.toml) is that calibrated machine, not the machine it was given.
+    let (mut m, measured, opts) = quick_case(16, vec![EffectKind::Slip]);
+    let given_hz = 2600.0 * 1.12;
+    Param::ResonanceHz.set(&mut m, given_hz);
+    let (fin, history, last) = run_loop(&m, &measured, 1, &opts, &|_, _| true).unwrap();
+    assert_eq!(history.len(), 1);
+    assert_eq!(history[0].applied, None, "{}", history[0].verdict);
+    assert!(!last.calibration.parameters.is_empty());
+    for (p, v) in &last.calibration.parameters {
+        assert_eq!(p.get(&fin), Some(*v), "{} of the final machine against its calibration", p.name());
+    }
+    let f = Param::ResonanceHz.get(&fin).unwrap();
+    assert!((f - 2600.0).abs() < (given_hz - 2600.0).abs() / 2.0, "final resonance {f:.0} Hz, given {given_hz:.0} Hz, true 2600 Hz");
+}
+
+#[test]
 fn progress_counts_every_evaluation_and_cancel_stops_the_search() {
     use std::sync::atomic::{AtomicUsize, Ordering};
     let (m, measured, opts) = quick_case(11, vec![EffectKind::Slip, EffectKind::CasingModes]);

@@ -79,7 +79,8 @@ pub struct LoopReport {
     pub json: String,
     /// `model_loop_history.csv`: one row per round.
     pub history_csv: String,
-    /// `model_loop_final_machine.toml`: the machine after the last applied effect.
+    /// `model_loop_final_machine.toml`: the last round's calibrated machine when that round
+    /// applied nothing, else the machine with the last applied effect.
     pub final_machine: String,
 }
 

@@ -2049,7 +2049,9 @@ pub fn check_loop_rounds(n: usize) -> Result<(), super::CompareError> {
 
 /// compare → diagnose → apply the best effect (with its fitted parameter) → repeat, for up to
 /// `rounds` rounds or until nothing significant is missing. Returns the final machine, the
-/// history, and the last diagnosis.
+/// history, and the last diagnosis. The final machine is the last round's calibrated machine
+/// when that round applied nothing (its calibration re-fits every applied effect), and else
+/// the machine with the last applied effect (fitted by its trial, not yet re-calibrated).
 ///
 /// **Replacement.** An effect applied while another one was still missing may have taken
 /// that one's place (a large unbalance standing in for a misalignment and a path modulation
@@ -2178,6 +2180,9 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
         }
         history.push(round);
         last = Some(d);
+        // Nothing applied: the loop ends on this round's calibrated machine, the one its
+        // calibration report and objective describe.
+        current = cal;
         break;
     }
     let last = last.ok_or(LoopError::Cancelled)?;
