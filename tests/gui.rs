@@ -361,6 +361,49 @@ fn model_loop_refuses_an_invalid_parameter() {
     assert!(labels_containing(&h, "Error: ").is_empty());
 }
 
+/// The model loop's machine saved as TOML and opened again (what `diagnose --machine` reads and
+/// `--save-machine` writes): the same machine back, a new start; a broken file, or one that
+/// cannot be written, gives an error and keeps the machine.
+#[test]
+fn model_loop_saves_and_opens_a_machine_file() {
+    use twinscope::compare::Param;
+    let mut h = harness(StartOptions { tab: Some("model".into()), ..Default::default() });
+    h.run_steps(3);
+    assert!(h.query_by_label("Open machine…").is_some() && h.query_by_label("Save machine…").is_some());
+    let mut edited = h.state().session.model.machine.clone();
+    Param::ResonanceHz.set(&mut edited, 2750.0);
+    h.state_mut().execute(Command::SetMachine(Box::new(edited.clone())));
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("edited_machine.toml");
+    h.state_mut().execute(Command::SaveMachine(p.clone()));
+    assert!(p.exists(), "messages: {:?}", h.state().session.messages.iter().map(|m| m.text.clone()).collect::<Vec<_>>());
+    // The file is what the CLI reads.
+    assert_eq!(twinscope::model::Machine::from_toml(&std::fs::read_to_string(&p).unwrap(), "saved").unwrap(), edited);
+    h.state_mut().execute(Command::LoadMachinePreset("mfs_inner".into()));
+    h.run_steps(3);
+    assert_ne!(h.state().session.model.machine, edited);
+    h.state_mut().execute(Command::OpenMachine(p.clone()));
+    h.run_steps(3);
+    assert_eq!(h.state().session.model.machine, edited);
+    assert_eq!(h.state().session.model.preset, "edited_machine.toml");
+    assert!(h.state().session.model.history.is_empty() && h.state().session.model.result.is_none());
+    let shown: Vec<String> = h.query_all_by_label("machine preset").map(|n| format!("{:?}", n.accesskit_node().value())).collect();
+    assert!(shown.iter().any(|v| v.contains("edited_machine.toml")), "the machine's file names it in the preset box: {shown:?}");
+    // A broken file: an error naming it, the machine kept.
+    let bad = dir.path().join("broken.toml");
+    std::fs::write(&bad, "name = \"x\"\nfs_hz = -3\n").unwrap();
+    h.state_mut().execute(Command::OpenMachine(bad));
+    h.run_steps(3);
+    assert_eq!(h.state().session.model.machine, edited);
+    let last = h.state().session.messages.last().map(|m| m.text.clone()).unwrap_or_default();
+    assert!(last.starts_with("machine not changed") && last.contains("broken.toml"), "{last}");
+    // A path that cannot be written: an error, nothing lost.
+    h.state_mut().execute(Command::SaveMachine(dir.path().join("no_such_dir").join("m.toml")));
+    let last = h.state().session.messages.last().map(|m| m.text.clone()).unwrap_or_default();
+    assert!(last.contains("cannot write"), "{last}");
+    assert_eq!(h.state().session.model.machine, edited);
+}
+
 /// A session saved with a loaded file, a metadata edit, another chain and another machine
 /// reopens with the same file and channel, metadata, chain, machine and rounds.
 #[test]

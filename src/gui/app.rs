@@ -238,6 +238,21 @@ impl Workbench {
                 }
                 Err(e) => self.session.tell(Level::Error, e),
             },
+            Command::OpenMachine(p) => match jobs::read_machine(&p) {
+                Ok(machine) => {
+                    let label = p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned());
+                    let history = std::mem::take(&mut self.session.model.history);
+                    let (revision, sim) = (self.session.model.revision, self.session.model.simulated_id);
+                    // A new start, as a preset is: no search, no rounds, no pending replacement.
+                    self.session.model = ModelState { revision: revision + 1, simulated_id: sim, ..ModelState::of_machine(&label, machine) };
+                    self.session.tell(Level::Info, format!("machine read from {}; the history of rounds ({} rounds) was cleared", p.display(), history.len()));
+                }
+                Err(e) => self.session.tell(Level::Error, format!("machine not changed: {e}")),
+            },
+            Command::SaveMachine(p) => match jobs::write_machine(&self.session.model.machine, &p) {
+                Ok(()) => self.session.tell(Level::Info, format!("machine written to {}", p.display())),
+                Err(e) => self.session.tell(Level::Error, e),
+            },
             Command::SetMachine(m) => match m.validate() {
                 Ok(()) => self.session.model.machine = *m,
                 Err(e) => self.session.tell(Level::Error, format!("machine not changed: {e}")),
@@ -589,6 +604,8 @@ impl Workbench {
                     Purpose::SaveChain => self.execute(Command::SaveChain(p)),
                     Purpose::SaveSession => self.execute(Command::SaveSession(p)),
                     Purpose::OpenSession => self.execute(Command::OpenSession(p)),
+                    Purpose::OpenMachine => self.execute(Command::OpenMachine(p)),
+                    Purpose::SaveMachine => self.execute(Command::SaveMachine(p)),
                     Purpose::ExportCsv => self.execute(Command::ExportCsv(p)),
                     Purpose::ExportSvg => self.execute(Command::ExportSvg(p)),
                     Purpose::ExportPng => self.execute(Command::ExportPng(p)),

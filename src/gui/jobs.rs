@@ -9,7 +9,7 @@ use crate::chain::{Chain, ChainContext, Data};
 use crate::compare::{self, CompareOptions};
 use crate::dsp;
 use crate::kinematics::{labelled_peaks, lookup_bearing, marker_lines, CharacteristicFrequency, PeakLabelling};
-use crate::model;
+use crate::model::{self, Machine};
 use crate::signal::io::{self, LoadOptions};
 use crate::signal::Signal;
 use std::path::{Path, PathBuf};
@@ -301,6 +301,20 @@ pub fn write_chain(chain: &Chain, path: &Path) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: cannot write ({e})", path.display()))
 }
 
+/// Reads a machine TOML file (parsed and validated as `diagnose --machine` reads one).
+pub fn read_machine(path: &Path) -> Result<Machine, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read ({e})", path.display()))?;
+    Machine::from_toml(&text, &path.display().to_string()).map_err(|e| e.to_string())
+}
+
+/// Writes a machine TOML file (checked by reading it back first, so a file that could not be
+/// opened again is never written).
+pub fn write_machine(m: &Machine, path: &Path) -> Result<(), String> {
+    let text = m.to_toml();
+    Machine::from_toml(&text, &path.display().to_string()).map_err(|e| format!("not saved: {e}"))?;
+    std::fs::write(path, text).map_err(|e| format!("{}: cannot write ({e})", path.display()))
+}
+
 /// Checks an edited chain the way a file would be checked (names, inputs, parameter types).
 pub fn check_chain(chain: &Chain) -> Result<Chain, String> {
     Chain::from_toml(&chain.to_toml(), "the edited chain").map_err(|e| e.to_string())
@@ -329,6 +343,8 @@ pub fn pick(purpose: super::session::Purpose, start_dir: Option<PathBuf>) -> Opt
         Purpose::OpenChain => d.add_filter("chain", &["toml"]).pick_file(),
         Purpose::SaveChain => d.add_filter("chain", &["toml"]).set_file_name("chain.toml").save_file(),
         Purpose::OpenSession => d.add_filter("twinscope session", &["json"]).pick_file(),
+        Purpose::OpenMachine => d.add_filter("machine", &["toml"]).pick_file(),
+        Purpose::SaveMachine => d.add_filter("machine", &["toml"]).set_file_name("machine.toml").save_file(),
         Purpose::SaveSession => d.add_filter("twinscope session", &["json"]).set_file_name("session.twinscope.json").save_file(),
         Purpose::ExportCsv => d.add_filter("CSV", &["csv"]).set_file_name("view.csv").save_file(),
         Purpose::ExportSvg => d.add_filter("SVG", &["svg"]).set_file_name("view.svg").save_file(),

@@ -191,7 +191,13 @@ impl ModelState {
     pub fn from_preset(name: &str) -> Result<Self, String> {
         let machine = crate::model::preset(name).map_err(|e| e.to_string())?;
         machine.validate().map_err(|e| e.to_string())?;
-        Ok(Self { preset: name.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new(), loop_start: None })
+        Ok(Self::of_machine(name, machine))
+    }
+
+    /// A new start from `machine` (checked by the caller), named `label` (a preset's name or a
+    /// file's): no search, no rounds.
+    pub fn of_machine(label: &str, machine: Machine) -> Self {
+        Self { preset: label.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new(), loop_start: None }
     }
 
     /// The effects a search's calibration re-fits: those the history applied (as `run_loop`
@@ -386,6 +392,10 @@ pub enum Purpose {
     SaveSession,
     /// Open a session.
     OpenSession,
+    /// Open a machine TOML for the model loop.
+    OpenMachine,
+    /// Save the model loop's machine as TOML.
+    SaveMachine,
     /// Export the shown data as CSV.
     ExportCsv,
     /// Export the shown plot as SVG.

@@ -53,6 +53,11 @@ pub enum Command {
     Compare { measured: usize, simulated: usize },
     /// Model loop: start again from a bundled machine preset.
     LoadMachinePreset(String),
+    /// Model loop: start again from a machine TOML (as `diagnose --machine` reads and
+    /// `--save-machine` writes).
+    OpenMachine(PathBuf),
+    /// Model loop: write the current machine as TOML.
+    SaveMachine(PathBuf),
     /// Model loop: take an edited (valid) machine.
     SetMachine(Box<Machine>),
     /// Model loop: take the calibrated machine of the last search.

@@ -6,7 +6,7 @@
 
 use super::{drawable, fmt_num, unit_of, Command, View};
 use crate::compare::Param;
-use crate::gui::session::Session;
+use crate::gui::session::{Purpose, Session};
 use crate::gui::settings::Settings;
 use crate::model::{EffectKind, Effects, Machine, PRESETS};
 use crate::signal::export::{PlotData, Series};
@@ -441,6 +441,12 @@ impl View for ModelLoopView {
                     }
                 }
             });
+            if ui.button("Open machine…").on_hover_text("start again from a machine TOML (what `twinscope diagnose --machine` reads and `--save-machine` writes); the history of rounds is cleared").clicked() {
+                cmd = Some(Command::Dialog(Purpose::OpenMachine));
+            }
+            if ui.button("Save machine…").on_hover_text("write the machine as it stands (after \"Use calibrated model\", the calibrated one) as TOML, for `twinscope diagnose --machine`, `simulate` and batch jobs").clicked() {
+                cmd = Some(Command::Dialog(Purpose::SaveMachine));
+            }
             let mut chosen = measured;
             egui::ComboBox::from_label("measured").selected_text(measured.map(name).unwrap_or_else(|| "none".into())).show_ui(ui, |ui| {
                 for &i in &measured_list {
