@@ -120,6 +120,11 @@ enum Command {
         /// calibration parameter, e.g. `noise`).
         #[arg(long = "with", value_name = "EFFECT")]
         with: Vec<String>,
+        /// Effects on in the machine whose parameters the calibration re-fits, as the loop
+        /// re-fits those it applies itself (repeatable): to go on from a machine an earlier
+        /// `--save-machine` wrote, name the effects that loop applied (it prints them).
+        #[arg(long = "refit", value_name = "EFFECT")]
+        refit: Vec<String>,
         /// Rounds of diagnose → apply best → re-compare (1 to 20).
         #[arg(long, default_value_t = 1, value_parser = parse_rounds)]
         rounds: usize,
@@ -531,7 +536,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, path_correction as usize, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, rounds, &step, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, refit, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, &refit, rounds, &step, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, step, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
             confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, &step, json.as_deref(), search.options())
@@ -772,7 +777,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
 }
 
 #[allow(clippy::too_many_arguments)]
-fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], rounds: usize, step: &StepArgs, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
+fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], refit: &[String], rounds: usize, step: &StepArgs, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare;
     use twinscope::model::{self, Machine};
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
@@ -786,13 +791,15 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     }
     step.apply(&mut m);
     m.validate()?;
+    opts.refit_effects = refit.iter().map(|n| twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)).collect::<Result<_>>()?;
+    compare::calibrate::check_refit_effects(&m, &opts.refit_effects).context("--refit")?;
     if let Some(b) = band_hz {
         anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz");
         opts.compare.envelope_band_hz = [b[0], b[1]];
     }
     let started = std::time::Instant::now();
     if !quiet {
-        eprintln!("twinscope: calibrating the model ({}), then one trial per missing effect; about 15–20 s per round on 2 cores for a CWRU preset, 45–55 s for the MFS rig", compare::calibrate::calibration_parameters(&m).iter().map(|p| p.name()).collect::<Vec<_>>().join(", "));
+        eprintln!("twinscope: calibrating the model ({}), then one trial per missing effect; about 15–20 s per round on 2 cores for a CWRU preset, 45–55 s for the MFS rig", compare::calibrate::calibration_parameters_for(&m, &opts).iter().map(|p| p.name()).collect::<Vec<_>>().join(", "));
     }
     let show = !quiet && std::io::stderr().is_terminal();
     let progress = move |done: usize, expected: usize| {
@@ -901,6 +908,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     }
     if let Some(p) = save_machine {
         std::fs::write(p, final_m.to_toml())?;
+        let flags: String = compare::diagnose::refit_to_go_on(&history, &opts.refit_effects).iter().map(|k| format!(" --refit {}", k.name())).collect();
+        println!("\nmachine written to {}; to go on from it: twinscope diagnose {} --machine {}{flags}", p.display(), measured.display(), p.display());
     }
     if !quiet {
         let (reused, integrated) = model::loop_cache_stats();

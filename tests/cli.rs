@@ -222,6 +222,18 @@ fn polish_sweeps_out_of_range_are_refused_before_any_work() {
     }
 }
 
+/// `--refit` names effects the machine has on and whose parameters can be fitted; anything
+/// else is refused before any work, naming the flag and the effect.
+#[test]
+fn refit_of_an_effect_the_machine_lacks_is_refused_before_any_work() {
+    let measured = cwru("105_de_inner_007_0hp_12k.mat");
+    let m = measured.to_str().unwrap();
+    assert_clean_failure(&run(&["diagnose", m, "--preset", "cwru_6205_inner", "--refit", "load_zone"]), &["--refit", "load_zone", "does not have it on"]);
+    assert_clean_failure(&run(&["diagnose", m, "--preset", "cwru_6205_inner", "--refit", "warp_drive"]), &["warp_drive"]);
+    // The CWRU preset has the contact nonlinearity on: it has no parameter to fit.
+    assert_clean_failure(&run(&["diagnose", m, "--preset", "cwru_6205_inner", "--refit", "nonlinear_contact"]), &["--refit", "nonlinear_contact", "no parameter"]);
+}
+
 /// The defaults of session 44 (one SCF normaliser, the polish of the baselines only) and of
 /// session 48 (the second start for the top trials) are switched off by
 /// `--scf-slice-normalisers`, `--polish-second-starts` and `--no-uncalibrated-start-top`; the
@@ -342,4 +354,9 @@ dir = "out"
         let r = run(&["--batch", j2.to_str().unwrap()]);
         assert_clean_failure(&r, &["model_loop"]);
     }
+    // An effect to re-fit that the loop's machine does not have on.
+    let text = std::fs::read_to_string(&job).unwrap().replacen("rounds = 2", "rounds = 2\nrefit = [\"load_zone\"]", 1);
+    let j3 = d.path().join("bad_refit.toml");
+    std::fs::write(&j3, text).unwrap();
+    assert_clean_failure(&run(&["--batch", j3.to_str().unwrap()]), &["model_loop.refit", "load_zone", "does not have it on"]);
 }

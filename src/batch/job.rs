@@ -179,6 +179,10 @@ pub struct LoopSpec {
     pub band_hz: Option<[f64; 2]>,
     /// Effects the search may try. Default: every applicable effect the model lacks.
     pub candidates: Vec<String>,
+    /// Effects on in the starting machine whose parameters the calibration re-fits, as the
+    /// loop re-fits those it applies itself: for a machine an earlier loop saved
+    /// (`compare::calibrate::check_refit_effects`). Default: none.
+    pub refit: Vec<String>,
     /// Model time simulated per evaluation, s (0.2–60, `compare::FIT_DURATION_RANGE_S`).
     /// Default: the library's.
     pub fit_duration_s: f64,
@@ -280,6 +284,7 @@ impl Default for LoopSpec {
             rounds: 3,
             band_hz: None,
             candidates: Vec::new(),
+            refit: Vec::new(),
             fit_duration_s: o.fit_duration_s,
             unbend_pinned: o.unbend_pinned,
             uncalibrated_start: o.uncalibrated_start,
@@ -342,6 +347,7 @@ impl LoopSpec {
             .iter()
             .map(|n| EffectKind::parse_named(n).map_err(|e| format!("`model_loop.candidates`: {e}")))
             .collect::<Result<_, _>>()?;
+        o.refit_effects = self.refit.iter().map(|n| EffectKind::parse_named(n).map_err(|e| format!("`model_loop.refit`: {e}"))).collect::<Result<_, _>>()?;
         Ok(o)
     }
 }
@@ -628,6 +634,10 @@ mod tests {
         assert_eq!((lib.coupled_refined_starts, o.coupled_refined_starts, chosen.coupled_refined_starts), (0, 0, 3));
         let no_grid = toml::from_str::<LoopSpec>(&format!("preset = \"cwru_6205_inner\"\nforce_pair_grid = {}", !lib.force_pair_grid)).unwrap().options(&chain).unwrap();
         assert_eq!((o.force_pair_grid, no_grid.force_pair_grid), (lib.force_pair_grid, !lib.force_pair_grid));
+        let refit = toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"\nrefit = [\"load_zone\", \"noise\"]").unwrap().options(&chain).unwrap();
+        assert_eq!((o.refit_effects.as_slice(), refit.refit_effects.as_slice()), (&[][..], &[crate::model::EffectKind::LoadZone, crate::model::EffectKind::Noise][..]));
+        let bad = toml::from_str::<LoopSpec>("preset = \"cwru_6205_inner\"\nrefit = [\"warp_drive\"]").unwrap().options(&chain).unwrap_err();
+        assert!(bad.contains("model_loop.refit") && bad.contains("warp_drive"), "{bad}");
     }
 
     #[test]

@@ -79,7 +79,9 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
     let model_loop = match &job.model_loop {
         Some(spec) => {
             let bad = |message: String| BatchError::Job { path: job.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "job".into()), message };
-            Some((spec.rounds, spec.machine(&job.base()).map_err(bad)?, spec.options(&chain).map_err(bad)?))
+            let (m, opts) = (spec.machine(&job.base()).map_err(bad)?, spec.options(&chain).map_err(bad)?);
+            crate::compare::calibrate::check_refit_effects(&m, &opts.refit_effects).map_err(|e| bad(format!("`model_loop.refit`: {e}")))?;
+            Some((spec.rounds, m, opts))
         }
         None => None,
     };

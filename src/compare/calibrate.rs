@@ -1359,9 +1359,43 @@ pub fn calibration_parameters_for(m: &Machine, opts: &LoopOptions) -> Vec<Param>
     v
 }
 
+/// Checks effects named for the calibration to re-fit ([`LoopOptions::refit_effects`]; the
+/// CLI's `diagnose --refit`, a batch job's `model_loop.refit`): each must be on in `m` and have a
+/// parameter to fit. A loop started from a machine a former loop saved re-fits what that loop
+/// applied only when told so, as `run_loop` re-fits what it applies itself.
+pub fn check_refit_effects(m: &Machine, effects: &[EffectKind]) -> Result<(), CompareError> {
+    for k in effects {
+        let reason = if !m.effects.is_on(*k) {
+            format!("{}: the machine does not have it on (switch it on, or leave it out)", k.name())
+        } else if Param::of_effect(*k).is_empty() {
+            format!("{}: it has no parameter the calibration fits", k.name())
+        } else {
+            continue;
+        };
+        return Err(CompareError::Parameter { name: "refit", reason });
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn effects_to_re_fit_must_be_on_and_have_a_parameter() {
+        let mut m = crate::model::preset("mfs_inner").unwrap();
+        m.effects.disable(EffectKind::LoadZone);
+        assert!(check_refit_effects(&m, &[]).is_ok());
+        let off = check_refit_effects(&m, &[EffectKind::LoadZone]).unwrap_err().to_string();
+        assert!(off.contains("refit") && off.contains("load_zone") && off.contains("does not have it on"), "{off}");
+        m.effects.enable(EffectKind::LoadZone);
+        check_refit_effects(&m, &[EffectKind::LoadZone]).unwrap();
+        let opts = LoopOptions { refit_effects: vec![EffectKind::LoadZone], ..LoopOptions::default() };
+        assert!(calibration_parameters_for(&m, &opts).contains(&Param::RadialLoadN));
+        m.effects.enable(EffectKind::NonlinearContact);
+        let none = check_refit_effects(&m, &[EffectKind::LoadZone, EffectKind::NonlinearContact]).unwrap_err().to_string();
+        assert!(none.contains("nonlinear_contact") && none.contains("no parameter"), "{none}");
+    }
 
     #[test]
     fn a_fault_depth_the_ball_cannot_reach_is_not_calibrated() {

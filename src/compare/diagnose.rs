@@ -1900,6 +1900,20 @@ pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
     on
 }
 
+/// The effects a loop going on from this loop's final machine re-fits
+/// ([`LoopOptions::refit_effects`]): those this loop was told to re-fit (`given`) and those it
+/// applied ([`applied_effects`]), once each, less any without a parameter to fit (a contact
+/// nonlinearity, applied with the load zone it acts through).
+pub fn refit_to_go_on(history: &[Round], given: &[EffectKind]) -> Vec<EffectKind> {
+    let mut v: Vec<EffectKind> = Vec::new();
+    for k in given.iter().copied().chain(applied_effects(history)) {
+        if !v.contains(&k) && !Param::of_effect(k).is_empty() {
+            v.push(k);
+        }
+    }
+    v
+}
+
 /// The lowest objective a model reaches with at most one more effect: its calibrated
 /// objective `j_cal`, or its best trial's, whether that trial was significant or not. A stuck
 /// model and a replacement are compared on this, so both get the same one addition (counting
@@ -2722,6 +2736,15 @@ mod tests {
     fn round(n: usize, ranking: Vec<(EffectKind, f64)>, applied: Option<EffectKind>, removed: Option<EffectKind>) -> Round {
         let ranking = ranking.into_iter().map(|(k, e)| (k, 1.0 - e, e)).collect();
         Round { round: n, envelope_nrmse: 1.0, objective: 1.0, floor_objective: 0.5, ranking, applied, removed, ..Default::default() }
+    }
+
+    #[test]
+    fn a_loop_going_on_re_fits_what_it_was_given_and_what_was_applied_once_each() {
+        use EffectKind::*;
+        let mut h = vec![round(1, vec![], Some(Unbalance), None), round(2, vec![], Some(Misalignment), Some(Unbalance)), round(3, vec![], Some(NonlinearContact), None), round(4, vec![], None, None)];
+        h[2].applied_with = Some(LoadZone);
+        assert_eq!(refit_to_go_on(&h, &[Noise, Misalignment]), vec![Noise, Misalignment, LoadZone]);
+        assert_eq!(refit_to_go_on(&[], &[]), vec![]);
     }
 
     #[test]
