@@ -288,31 +288,37 @@ pub fn demo(ids: [u64; 2], labelling: PeakLabelling, job: &JobHandle) -> Result<
     Ok(())
 }
 
+/// Reads a TOML file with `parse(text, source name)`.
+fn read_toml<T, E: std::fmt::Display>(path: &Path, parse: impl Fn(&str, &str) -> Result<T, E>) -> Result<T, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read ({e})", path.display()))?;
+    parse(&text, &path.display().to_string()).map_err(|e| e.to_string())
+}
+
+/// Writes `text` to a TOML file after checking that `parse` reads it back, so a file that
+/// could not be opened again is never written.
+fn write_toml<T, E: std::fmt::Display>(text: String, path: &Path, parse: impl Fn(&str, &str) -> Result<T, E>) -> Result<(), String> {
+    parse(&text, &path.display().to_string()).map_err(|e| format!("not saved: {e}"))?;
+    std::fs::write(path, text).map_err(|e| format!("{}: cannot write ({e})", path.display()))
+}
+
 /// Reads a chain TOML file.
 pub fn read_chain(path: &Path) -> Result<Chain, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read ({e})", path.display()))?;
-    Chain::from_toml(&text, &path.display().to_string()).map_err(|e| e.to_string())
+    read_toml(path, Chain::from_toml)
 }
 
 /// Writes a chain TOML file (checked by reading it back first).
 pub fn write_chain(chain: &Chain, path: &Path) -> Result<(), String> {
-    let text = chain.to_toml();
-    Chain::from_toml(&text, &path.display().to_string()).map_err(|e| format!("not saved: {e}"))?;
-    std::fs::write(path, text).map_err(|e| format!("{}: cannot write ({e})", path.display()))
+    write_toml(chain.to_toml(), path, Chain::from_toml)
 }
 
 /// Reads a machine TOML file (parsed and validated as `diagnose --machine` reads one).
 pub fn read_machine(path: &Path) -> Result<Machine, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read ({e})", path.display()))?;
-    Machine::from_toml(&text, &path.display().to_string()).map_err(|e| e.to_string())
+    read_toml(path, Machine::from_toml)
 }
 
-/// Writes a machine TOML file (checked by reading it back first, so a file that could not be
-/// opened again is never written).
+/// Writes a machine TOML file (checked by reading it back first).
 pub fn write_machine(m: &Machine, path: &Path) -> Result<(), String> {
-    let text = m.to_toml();
-    Machine::from_toml(&text, &path.display().to_string()).map_err(|e| format!("not saved: {e}"))?;
-    std::fs::write(path, text).map_err(|e| format!("{}: cannot write ({e})", path.display()))
+    write_toml(m.to_toml(), path, Machine::from_toml)
 }
 
 /// Checks an edited chain the way a file would be checked (names, inputs, parameter types).
