@@ -230,22 +230,17 @@ impl Workbench {
             }
             Command::LoadMachinePreset(name) => match ModelState::from_preset(&name) {
                 Ok(m) => {
-                    let history = std::mem::take(&mut self.session.model.history);
-                    let sim = self.session.model.simulated_id;
-                    self.session.model = ModelState { revision: self.session.model.revision + 1, simulated_id: sim, ..m };
+                    let cleared = self.session.model.start_again(m);
                     self.settings.machine_preset = name.clone();
-                    self.session.tell(Level::Info, format!("machine preset {name} loaded; the history of rounds ({} rounds) was cleared", history.len()));
+                    self.session.tell(Level::Info, format!("machine preset {name} loaded; the history of rounds ({cleared} rounds) was cleared"));
                 }
                 Err(e) => self.session.tell(Level::Error, e),
             },
             Command::OpenMachine(p) => match jobs::read_machine(&p) {
                 Ok(machine) => {
                     let label = p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned());
-                    let history = std::mem::take(&mut self.session.model.history);
-                    let (revision, sim) = (self.session.model.revision, self.session.model.simulated_id);
-                    // A new start, as a preset is: no search, no rounds, no pending replacement.
-                    self.session.model = ModelState { revision: revision + 1, simulated_id: sim, ..ModelState::of_machine(&label, machine) };
-                    self.session.tell(Level::Info, format!("machine read from {}; the history of rounds ({} rounds) was cleared", p.display(), history.len()));
+                    let cleared = self.session.model.start_again(ModelState::of_machine(&label, machine));
+                    self.session.tell(Level::Info, format!("machine read from {}; the history of rounds ({cleared} rounds) was cleared", p.display()));
                 }
                 Err(e) => self.session.tell(Level::Error, format!("machine not changed: {e}")),
             },

@@ -200,6 +200,14 @@ impl ModelState {
         Self { preset: label.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new(), loop_start: None }
     }
 
+    /// Starts again from `fresh` (a preset's or a file's new start), keeping the revision
+    /// counting up and the simulated signal's id; returns how many rounds were cleared.
+    pub fn start_again(&mut self, fresh: ModelState) -> usize {
+        let cleared = self.history.len();
+        *self = ModelState { revision: self.revision + 1, simulated_id: self.simulated_id, ..fresh };
+        cleared
+    }
+
     /// The effects a search's calibration re-fits: those the history applied (as `run_loop`
     /// does), with a pending replacement's swap.
     pub fn refit_effects(&self) -> Vec<EffectKind> {
