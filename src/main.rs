@@ -279,8 +279,8 @@ struct SearchArgs {
     #[arg(long, value_name = "N", default_value_t = twinscope::compare::LoopOptions::default().coupled_refined_starts)]
     coupled_refined_starts: usize,
     /// Re-fit an unbalance and a misalignment applied on one shaft by line searches only. By
-    /// default a round's calibration also fits their two amplitudes jointly on a grid (±12 %
-    /// in 3 % steps, then ±2 % in 1 % steps; 104 evaluations): their valley is a narrow
+    /// default a round's calibration also fits their two amplitudes jointly on a grid (±30 %
+    /// in 3 % steps, then ±2 % in 1 % steps; 464 evaluations): their valley is a narrow
     /// diagonal that line searches do not follow (README "Coupled forces").
     #[arg(long)]
     no_force_pair_grid: bool,
