@@ -780,6 +780,14 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
 fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], refit: &[String], rounds: usize, step: &StepArgs, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare;
     use twinscope::model::{self, Machine};
+    // How the measurement is read and compared, for the command that goes on from a saved machine.
+    let mut go_on_args: Vec<String> = Vec::new();
+    if let Some(c) = &channel {
+        go_on_args.extend(["--channel".to_string(), c.clone()]);
+    }
+    if let Some(b) = &band_hz {
+        go_on_args.extend(["--band-hz".to_string(), b.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",")]);
+    }
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
     let mut m = match (machine, preset) {
         (Some(p), _) => Machine::from_toml(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?, &p.display().to_string())?,
@@ -908,8 +916,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     }
     if let Some(p) = save_machine {
         std::fs::write(p, final_m.to_toml())?;
-        let flags: String = compare::diagnose::refit_to_go_on(&history, &opts.refit_effects).iter().map(|k| format!(" --refit {}", k.name())).collect();
-        println!("\nmachine written to {}; to go on from it: twinscope diagnose {} --machine {}{flags}", p.display(), measured.display(), p.display());
+        let refit = compare::diagnose::refit_to_go_on(&history, &opts.refit_effects);
+        println!("\nmachine written to {}; to go on from it: {}", p.display(), compare::diagnose::go_on_command(measured, p, &go_on_args, &refit));
     }
     if !quiet {
         let (reused, integrated) = model::loop_cache_stats();

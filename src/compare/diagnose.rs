@@ -1914,6 +1914,22 @@ pub fn refit_to_go_on(history: &[Round], given: &[EffectKind]) -> Vec<EffectKind
     v
 }
 
+/// The command that goes on from a machine a loop saved: `twinscope diagnose MEASURED
+/// --machine MACHINE`, then `args` (how the measurement was read and compared: its channel,
+/// its envelope band), then a `--refit` for each of `refit` ([`refit_to_go_on`]); every word
+/// quoted when it holds a space or a character the shell reads, to be copied.
+pub fn go_on_command(measured: &std::path::Path, machine: &std::path::Path, args: &[String], refit: &[EffectKind]) -> String {
+    let word = |s: &str| shlex::try_quote(s).map_or_else(|_| s.to_string(), |q| q.into_owned());
+    let mut line = format!("twinscope diagnose {} --machine {}", word(&measured.to_string_lossy()), word(&machine.to_string_lossy()));
+    for a in args {
+        line += &format!(" {}", word(a));
+    }
+    for k in refit {
+        line += &format!(" --refit {}", k.name());
+    }
+    line
+}
+
 /// The lowest objective a model reaches with at most one more effect: its calibrated
 /// objective `j_cal`, or its best trial's, whether that trial was significant or not. A stuck
 /// model and a replacement are compared on this, so both get the same one addition (counting
@@ -2745,6 +2761,18 @@ mod tests {
         h[2].applied_with = Some(LoadZone);
         assert_eq!(refit_to_go_on(&h, &[Noise, Misalignment]), vec![Noise, Misalignment, LoadZone]);
         assert_eq!(refit_to_go_on(&[], &[]), vec![]);
+    }
+
+    #[test]
+    fn the_command_to_go_on_quotes_a_path_the_shell_would_split() {
+        use std::path::Path;
+        let band = ["--band-hz".to_string(), "1800,3000".to_string()];
+        let plain = go_on_command(Path::new("data/105.mat"), Path::new("go1.toml"), &band, &[EffectKind::LoadZone, EffectKind::Noise]);
+        assert!(plain.starts_with("twinscope diagnose data/105.mat --machine go1.toml --band-hz "), "{plain}");
+        assert_eq!(shlex::split(&plain).unwrap(), ["twinscope", "diagnose", "data/105.mat", "--machine", "go1.toml", "--band-hz", "1800,3000", "--refit", "load_zone", "--refit", "noise"]);
+        let channel = ["--channel".to_string(), "drive end".to_string()];
+        let spaced = go_on_command(Path::new("my data/rec 1.wav"), Path::new("it's.toml"), &channel, &[]);
+        assert_eq!(shlex::split(&spaced).unwrap(), ["twinscope", "diagnose", "my data/rec 1.wav", "--machine", "it's.toml", "--channel", "drive end"]);
     }
 
     #[test]
