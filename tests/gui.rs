@@ -404,6 +404,42 @@ fn model_loop_saves_and_opens_a_machine_file() {
     assert_eq!(h.state().session.model.machine, edited);
 }
 
+/// A machine opened from a file keeps the effects it has on; the calibration re-fits those the
+/// user ticks "re-fit" for (as `diagnose --refit`), and an effect the machine lacks is refused.
+#[test]
+fn model_loop_re_fits_an_opened_machines_effect_when_ticked() {
+    use twinscope::model::EffectKind::{GearMesh, LoadZone, Unbalance};
+    let mut h = harness(StartOptions { tab: Some("model".into()), ..Default::default() });
+    h.run_steps(3);
+    let mut m = twinscope::model::preset("mfs_healthy").unwrap();
+    m.effects.enable(Unbalance);
+    m.effects.disable(LoadZone);
+    m.effects.disable(GearMesh);
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("go on.toml");
+    std::fs::write(&p, m.to_toml()).unwrap();
+    h.state_mut().execute(Command::OpenMachine(p));
+    h.run_steps(3);
+    let last = h.state().session.messages.last().map(|m| m.text.clone()).unwrap_or_default();
+    assert!(last.contains("unbalance") && last.contains("re-fit"), "{last}");
+    assert!(h.state().session.model.refit_effects().is_empty(), "nothing re-fitted until asked");
+    // One box: the unbalance is the only effect on with a parameter (the contact nonlinearity has none).
+    let boxes: Vec<_> = h.get_all_by_label("re-fit").collect();
+    assert_eq!(boxes.len(), 1);
+    boxes[0].click();
+    h.run_steps(3);
+    assert_eq!(h.state().session.model.refit_given, vec![Unbalance]);
+    assert_eq!(h.state().session.model.refit_effects(), vec![Unbalance]);
+    h.get_by_label("re-fit").click();
+    h.run_steps(3);
+    assert!(h.state().session.model.refit_effects().is_empty());
+    // An effect the machine does not have on: refused, with the reason.
+    h.state_mut().execute(Command::SetRefit { effect: LoadZone, refit: true });
+    let last = h.state().session.messages.last().map(|m| m.text.clone()).unwrap_or_default();
+    assert!(last.contains("not re-fitted") && last.contains("load_zone"), "{last}");
+    assert!(h.state().session.model.refit_given.is_empty());
+}
+
 /// A session saved with a loaded file, a metadata edit, another chain and another machine
 /// reopens with the same file and channel, metadata, chain, machine and rounds.
 #[test]

@@ -239,8 +239,10 @@ impl Workbench {
             Command::OpenMachine(p) => match jobs::read_machine(&p) {
                 Ok(machine) => {
                     let label = p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned());
+                    let fitted_on: Vec<&str> = machine.effects.enabled().into_iter().filter(|k| !crate::compare::Param::of_effect(*k).is_empty()).map(|k| k.name()).collect();
                     let cleared = self.session.model.start_again(ModelState::of_machine(&label, machine));
-                    self.session.tell(Level::Info, format!("machine read from {}; the history of rounds ({cleared} rounds) was cleared", p.display()));
+                    let hint = if fitted_on.is_empty() { String::new() } else { format!("; it has {} on: tick \"re-fit\" beside those a loop applied, so that the calibration fits them again (as `diagnose --refit`)", fitted_on.join(", ")) };
+                    self.session.tell(Level::Info, format!("machine read from {}; the history of rounds ({cleared} rounds) was cleared{hint}", p.display()));
                 }
                 Err(e) => self.session.tell(Level::Error, format!("machine not changed: {e}")),
             },
@@ -248,6 +250,16 @@ impl Workbench {
                 Ok(()) => self.session.tell(Level::Info, format!("machine written to {}", p.display())),
                 Err(e) => self.session.tell(Level::Error, e),
             },
+            Command::SetRefit { effect, refit } => {
+                let model = &mut self.session.model;
+                model.refit_given.retain(|k| *k != effect);
+                if refit {
+                    match crate::compare::calibrate::check_refit_effects(&model.machine, &[effect]) {
+                        Ok(()) => model.refit_given.push(effect),
+                        Err(e) => self.session.tell(Level::Error, format!("not re-fitted: {e}")),
+                    }
+                }
+            }
             Command::SetMachine(m) => match m.validate() {
                 Ok(()) => self.session.model.machine = *m,
                 Err(e) => self.session.tell(Level::Error, format!("machine not changed: {e}")),
@@ -637,6 +649,7 @@ impl Workbench {
         model.preset = f.machine_preset.clone();
         model.replace_machine(machine);
         model.history = f.history.clone();
+        model.refit_given = f.refit.clone();
         model.result = None;
         model.simulated_id = None;
         model.pending_replacement = None;

@@ -165,6 +165,10 @@ pub struct ModelState {
     /// The machine the first search of the history started from: the uncalibrated values a
     /// re-fit by hand starts from ([`ModelState::start_refit`]).
     pub loop_start: Option<Machine>,
+    /// Effects on in the machine the user asked every search's calibration to re-fit, as
+    /// `diagnose --refit` (those the history applied are re-fitted anyway): to go on from a
+    /// machine a loop saved. Empty on a new start.
+    pub refit_given: Vec<EffectKind>,
 }
 
 /// The loop's replacement step done by hand ([`ModelState::start_replacement`]): `added` in
@@ -197,7 +201,7 @@ impl ModelState {
     /// A new start from `machine` (checked by the caller), named `label` (a preset's name or a
     /// file's): no search, no rounds.
     pub fn of_machine(label: &str, machine: Machine) -> Self {
-        Self { preset: label.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new(), loop_start: None }
+        Self { preset: label.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new(), loop_start: None, refit_given: Vec::new() }
     }
 
     /// Starts again from `fresh` (a preset's or a file's new start), keeping the revision
@@ -208,10 +212,12 @@ impl ModelState {
         cleared
     }
 
-    /// The effects a search's calibration re-fits: those the history applied (as `run_loop`
-    /// does), with a pending replacement's swap.
+    /// The effects a search's calibration re-fits: those the user asked for
+    /// ([`ModelState::refit_given`]) that the machine has on, and those the history applied (as
+    /// `run_loop` does; `compare::diagnose::refit_to_go_on`), with a pending replacement's swap.
     pub fn refit_effects(&self) -> Vec<EffectKind> {
-        let mut on = crate::compare::diagnose::applied_effects(&self.history);
+        let given: Vec<EffectKind> = self.refit_given.iter().copied().filter(|k| self.machine.effects.is_on(*k)).collect();
+        let mut on = crate::compare::diagnose::refit_to_go_on(&self.history, &given);
         if let Some(p) = &self.pending_replacement {
             on.retain(|k| *k != p.removed);
             on.push(p.added);
@@ -520,6 +526,29 @@ mod tests {
         let mut diagnosis = Diagnosis { floor_objective: 3.3, objective_scatter: 0.2, verdict: "nothing significant is missing".into(), ..Default::default() };
         diagnosis.calibration.objective_after = j;
         LoopResult { measured: "measured".into(), options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None }
+    }
+
+    #[test]
+    fn a_re_fit_asked_for_joins_the_applied_effects_while_its_effect_is_on() {
+        use crate::model::EffectKind::Noise;
+        let mut m = crate::model::preset("mfs_healthy").unwrap();
+        m.effects.enable(Unbalance);
+        m.effects.enable(Misalignment);
+        let mut s = ModelState::of_machine("go1.toml", m);
+        assert!(s.refit_effects().is_empty() && s.refit_given.is_empty(), "a new start re-fits nothing it was not told to");
+        s.refit_given = vec![Unbalance, Misalignment];
+        assert_eq!(s.refit_effects(), vec![Unbalance, Misalignment]);
+        // Switched off in the machine: no longer re-fitted (the calibration would refuse it).
+        s.machine.effects.disable(Misalignment);
+        assert_eq!(s.refit_effects(), vec![Unbalance]);
+        // What the rounds applied comes after, once.
+        s.history.push(Round { round: 1, applied: Some(Noise), ..Default::default() });
+        s.history.push(Round { round: 2, applied: Some(Unbalance), ..Default::default() });
+        assert_eq!(s.refit_effects(), vec![Unbalance, Noise]);
+        // A new start forgets them.
+        let fresh = ModelState::from_preset("mfs_inner").unwrap();
+        s.start_again(fresh);
+        assert!(s.refit_given.is_empty());
     }
 
     /// Round 1 applied an unbalance with a misalignment close behind; round 2 is stuck at 17.9.

@@ -68,6 +68,9 @@ pub struct SessionFile {
     /// The model loop's rounds.
     #[serde(default)]
     pub history: Vec<Round>,
+    /// The effects the user asked the calibration to re-fit (`ModelState::refit_given`).
+    #[serde(default)]
+    pub refit: Vec<crate::model::EffectKind>,
     /// The last results, in words and numbers.
     #[serde(default)]
     pub results: ResultsSummary,
@@ -107,6 +110,7 @@ impl SessionFile {
             machine_preset: s.model.preset.clone(),
             machine_toml: s.model.machine.to_toml(),
             history: s.model.history.clone(),
+            refit: s.model.refit_given.clone(),
             results,
         }
     }

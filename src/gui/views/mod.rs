@@ -60,6 +60,9 @@ pub enum Command {
     SaveMachine(PathBuf),
     /// Model loop: take an edited (valid) machine.
     SetMachine(Box<Machine>),
+    /// Model loop: whether every search's calibration re-fits `effect`, which the machine has
+    /// on, as `diagnose --refit` ([`crate::gui::session::ModelState::refit_given`]).
+    SetRefit { effect: EffectKind, refit: bool },
     /// Model loop: take the calibrated machine of the last search.
     UseCalibrated,
     /// Model loop: simulate the current machine, then compare it with a measured signal.

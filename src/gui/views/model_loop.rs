@@ -86,9 +86,12 @@ impl ModelLoopView {
         changed
     }
 
-    fn effects_ui(ui: &mut egui::Ui, d: &mut Machine) -> bool {
+    /// The catalogue's toggles with their main parameters, and beside each effect on with a
+    /// parameter to fit a "re-fit" box (`refit`: the effects the calibration re-fits; those in
+    /// `applied`, which the loop's rounds applied, always are).
+    fn effects_ui(ui: &mut egui::Ui, d: &mut Machine, refit: &[EffectKind], applied: &[EffectKind], cmd: &mut Option<Command>) -> bool {
         let mut changed = false;
-        egui::Grid::new("effects").num_columns(2).striped(true).show(ui, |ui| {
+        egui::Grid::new("effects").num_columns(3).striped(true).show(ui, |ui| {
             for k in EffectKind::ALL {
                 let applicable = Effects::applicable(k, d);
                 let mut on = d.effects.is_on(k);
@@ -120,6 +123,16 @@ impl ModelLoopView {
                     None => {
                         ui.weak(if on { "switch" } else { "" });
                     }
+                }
+                if on && !Param::of_effect(k).is_empty() {
+                    let mut r = refit.contains(&k);
+                    let by_loop = applied.contains(&k);
+                    let resp = ui.add_enabled(!by_loop, egui::Checkbox::new(&mut r, "re-fit")).on_hover_text(format!("every search's calibration also fits {}'s parameters, as the loop re-fits what it applies (`diagnose --refit {}`): to go on from a machine a loop saved", k.name(), k.name())).on_disabled_hover_text("applied by this loop's rounds: every search re-fits it");
+                    if resp.changed() {
+                        *cmd = Some(Command::SetRefit { effect: k, refit: r });
+                    }
+                } else {
+                    ui.label("");
                 }
                 ui.end_row();
             }
@@ -484,7 +497,7 @@ impl View for ModelLoopView {
                 }
                 ui.add_space(6.0);
                 ui.strong("Effects");
-                changed |= Self::effects_ui(ui, draft);
+                changed |= Self::effects_ui(ui, draft, &model.refit_effects(), &crate::compare::diagnose::applied_effects(&model.history), &mut cmd);
                 ui.add_space(6.0);
                 new_settings = Self::search_settings_ui(ui, settings, draft);
             });
