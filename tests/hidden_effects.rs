@@ -299,6 +299,35 @@ fn assert_shaft_forces_round(r: ShaftForcesRound) {
     }
 }
 
+/// A round's diagnosis of a gear-base record with both shaft-rate forces hidden (unbalance
+/// `truth.0` kg·m, misalignment `truth.1` as (2×, 1×) N, `snr_db`, `seed`)
+/// from a model with both applied at `start` and its noise at `model_snr_db`, re-fitting them
+/// as the loop's round after both were applied does: both calibrated within 3 % of their
+/// truths, and nothing missing.
+fn assert_force_pair_calibrated(truth: (f64, (f64, f64)), snr_db: f64, seed: u64, start: (f64, f64), model_snr_db: f64) {
+    use twinscope::compare::{diagnose, Param};
+    use EffectKind::{Misalignment, Noise, Unbalance};
+    let base = model::preset(GEAR).unwrap();
+    let measured = shaft_forces_record(&base, truth.0, truth.1, snr_db, seed);
+    let mut model_m = base.clone();
+    for k in [Unbalance, Misalignment, Noise] {
+        model_m.effects.enable(k);
+    }
+    Param::UnbalanceKgM.set(&mut model_m, start.0);
+    let mis = model_m.effects.misalignment.as_mut().unwrap();
+    (mis.force_2x_n, mis.force_1x_n) = (start.1, start.1 / 4.0);
+    model_m.effects.noise.as_mut().unwrap().snr_db = model_snr_db;
+    let opts = LoopOptions { refit_effects: vec![Unbalance, Misalignment], ..LoopOptions::default() };
+    assert!(opts.force_pair_grid, "the default since session 68");
+    let (_, d) = diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
+    eprintln!("both forces applied, seed {seed}: calibration {:?}, objective {:.2}; {}", d.calibration.parameters, d.calibration.objective_after, d.verdict);
+    let value = |p: Param| d.calibration.parameters.iter().find(|x| x.0 == p).map(|x| x.1).unwrap();
+    for (p, t) in [(Param::UnbalanceKgM, truth.0), (Param::Misalignment2xN, truth.1 .0)] {
+        assert!((value(p) / t - 1.0).abs() < 0.03, "{} {:.4e} for {t:.4e}", p.name(), value(p));
+    }
+    assert_eq!(d.best, None, "{}", d.verdict);
+}
+
 /// Both shaft-rate forces applied, each a few per cent off (session 67's drawn machine 6711,
 /// gear base, unbalance 3.408e-3 kg·m, misalignment 11.27 / 2.817 N, 12.9 dB; the loop applied
 /// the unbalance at 2.783e-3, then the misalignment at 10.41 N with the unbalance at
@@ -309,28 +338,7 @@ fn assert_shaft_forces_round(r: ShaftForcesRound) {
 /// from the model with both applied, calibrates both within 3 % and finds nothing missing.
 #[test]
 fn the_calibration_fits_an_applied_unbalance_and_misalignment_together_to_their_truth() {
-    use twinscope::compare::{diagnose, Param};
-    use EffectKind::{Misalignment, Noise, Unbalance};
-    let base = model::preset(GEAR).unwrap();
-    let measured = shaft_forces_record(&base, 3.408e-3, (11.27, 2.817), 12.9, 6711);
-    let mut model_m = base.clone();
-    for k in [Unbalance, Misalignment, Noise] {
-        model_m.effects.enable(k);
-    }
-    Param::UnbalanceKgM.set(&mut model_m, 3.543e-3);
-    let mis = model_m.effects.misalignment.as_mut().unwrap();
-    (mis.force_2x_n, mis.force_1x_n) = (10.41, 10.41 / 4.0);
-    model_m.effects.noise.as_mut().unwrap().snr_db = 20.0;
-    // As in the loop's round after both were applied: the calibration re-fits them.
-    let opts = LoopOptions { refit_effects: vec![Unbalance, Misalignment], ..LoopOptions::default() };
-    assert!(opts.force_pair_grid, "the default since session 68");
-    let (_, d) = diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
-    eprintln!("both forces applied, seed 6711: calibration {:?}, objective {:.2}; {}", d.calibration.parameters, d.calibration.objective_after, d.verdict);
-    let value = |p: Param| d.calibration.parameters.iter().find(|x| x.0 == p).map(|x| x.1).unwrap();
-    for (p, t) in [(Param::UnbalanceKgM, 3.408e-3), (Param::Misalignment2xN, 11.27)] {
-        assert!((value(p) / t - 1.0).abs() < 0.03, "{} {:.4e} for {t:.4e}", p.name(), value(p));
-    }
-    assert_eq!(d.best, None, "{}", d.verdict);
+    assert_force_pair_calibrated((3.408e-3, (11.27, 2.817)), 12.9, 6711, (3.543e-3, 10.41), 20.0);
 }
 
 /// The same pair farther off (session 69's never-run machine 6911, gear base, unbalance
@@ -342,26 +350,7 @@ fn the_calibration_fits_an_applied_unbalance_and_misalignment_together_to_their_
 /// reaches it: both within 3 % and nothing missing.
 #[test]
 fn the_joint_grid_reaches_a_pair_of_forces_a_fifth_off_their_truth() {
-    use twinscope::compare::{diagnose, Param};
-    use EffectKind::{Misalignment, Noise, Unbalance};
-    let base = model::preset(GEAR).unwrap();
-    let measured = shaft_forces_record(&base, 2.706e-3, (14.16, 3.539), 10.0, 6911);
-    let mut model_m = base.clone();
-    for k in [Unbalance, Misalignment, Noise] {
-        model_m.effects.enable(k);
-    }
-    Param::UnbalanceKgM.set(&mut model_m, 3.288e-3);
-    let mis = model_m.effects.misalignment.as_mut().unwrap();
-    (mis.force_2x_n, mis.force_1x_n) = (11.30, 11.30 / 4.0);
-    model_m.effects.noise.as_mut().unwrap().snr_db = 10.25;
-    let opts = LoopOptions { refit_effects: vec![Unbalance, Misalignment], ..LoopOptions::default() };
-    let (_, d) = diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
-    eprintln!("both forces applied, seed 6911: calibration {:?}, objective {:.2}; {}", d.calibration.parameters, d.calibration.objective_after, d.verdict);
-    let value = |p: Param| d.calibration.parameters.iter().find(|x| x.0 == p).map(|x| x.1).unwrap();
-    for (p, t) in [(Param::UnbalanceKgM, 2.706e-3), (Param::Misalignment2xN, 14.16)] {
-        assert!((value(p) / t - 1.0).abs() < 0.03, "{} {:.4e} for {t:.4e}", p.name(), value(p));
-    }
-    assert_eq!(d.best, None, "{}", d.verdict);
+    assert_force_pair_calibrated((2.706e-3, (14.16, 3.539)), 10.0, 6911, (3.288e-3, 11.30), 10.25);
 }
 
 fn assert_control(preset: &str, seed: u64) {
