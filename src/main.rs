@@ -121,8 +121,8 @@ enum Command {
         #[arg(long = "with", value_name = "EFFECT")]
         with: Vec<String>,
         /// Effects on in the machine whose parameters the calibration re-fits, as the loop
-        /// re-fits those it applies itself (repeatable): to go on from a machine an earlier
-        /// `--save-machine` wrote, name the effects that loop applied (it prints them).
+        /// re-fits those it applies itself (repeatable). A machine an earlier `--save-machine`
+        /// wrote names what that loop fitted (`fitted_effects`), and those are re-fitted anyway.
         #[arg(long = "refit", value_name = "EFFECT")]
         refit: Vec<String>,
         /// Rounds of diagnose → apply best → re-compare (1 to 20).
@@ -801,6 +801,12 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     m.validate()?;
     opts.refit_effects = refit.iter().map(|n| twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)).collect::<Result<_>>()?;
     compare::calibrate::check_refit_effects(&m, &opts.refit_effects).context("--refit")?;
+    if let (Some(p), false) = (machine, m.fitted_effects.is_empty()) {
+        compare::calibrate::check_refit_effects(&m, &m.fitted_effects).with_context(|| format!("{}: fitted_effects", p.display()))?;
+        if !quiet {
+            eprintln!("twinscope: {} names fitted_effects = {}: the calibration re-fits them, as the loop that saved it did (take them out of the file to keep them fixed)", p.display(), m.fitted_effects.iter().map(|k| k.name()).collect::<Vec<_>>().join(", "));
+        }
+    }
     if let Some(b) = band_hz {
         anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz");
         opts.compare.envelope_band_hz = [b[0], b[1]];
@@ -915,9 +921,12 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         std::fs::write(p, serde_json::to_string_pretty(&serde_json::json!({ "history": history, "diagnosis": last, "final_machine": final_m }))?)?;
     }
     if let Some(p) = save_machine {
-        std::fs::write(p, final_m.to_toml())?;
-        let refit = compare::diagnose::refit_to_go_on(&history, &opts.refit_effects);
-        println!("\nmachine written to {}; to go on from it: {}", p.display(), compare::diagnose::go_on_command(measured, p, &go_on_args, &refit));
+        std::fs::write(p, final_m.to_toml()).with_context(|| format!("writing {}", p.display()))?;
+        let fitted = match final_m.fitted_effects.as_slice() {
+            [] => String::new(),
+            ks => format!(" (with fitted_effects = {}, which a calibration from it re-fits)", ks.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")),
+        };
+        println!("\nmachine written to {}{fitted}; to go on from it: {}", p.display(), compare::diagnose::go_on_command(measured, p, &go_on_args));
     }
     if !quiet {
         let (reused, integrated) = model::loop_cache_stats();

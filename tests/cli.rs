@@ -232,6 +232,13 @@ fn refit_of_an_effect_the_machine_lacks_is_refused_before_any_work() {
     assert_clean_failure(&run(&["diagnose", m, "--preset", "cwru_6205_inner", "--refit", "warp_drive"]), &["warp_drive"]);
     // The CWRU preset has the contact nonlinearity on: it has no parameter to fit.
     assert_clean_failure(&run(&["diagnose", m, "--preset", "cwru_6205_inner", "--refit", "nonlinear_contact"]), &["--refit", "nonlinear_contact", "no parameter"]);
+    // A machine file naming such an effect among those a loop fitted: refused, naming the file.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("saved.toml");
+    let mut saved = twinscope::model::preset("cwru_6205_inner").unwrap();
+    saved.fitted_effects = vec![twinscope::model::EffectKind::NonlinearContact];
+    std::fs::write(&file, saved.to_toml()).unwrap();
+    assert_clean_failure(&run(&["diagnose", m, "--machine", file.to_str().unwrap()]), &["saved.toml", "fitted_effects", "nonlinear_contact", "no parameter"]);
 }
 
 /// The defaults of session 44 (one SCF normaliser, the polish of the baselines only) and of

@@ -405,7 +405,8 @@ fn model_loop_saves_and_opens_a_machine_file() {
 }
 
 /// A machine opened from a file keeps the effects it has on; the calibration re-fits those the
-/// user ticks "re-fit" for (as `diagnose --refit`), and an effect the machine lacks is refused.
+/// user ticks "re-fit" for (as `diagnose --refit`), "Save machine…" names them in the file
+/// (`fitted_effects`) and opening it ticks them again; an effect the machine lacks is refused.
 #[test]
 fn model_loop_re_fits_an_opened_machines_effect_when_ticked() {
     use twinscope::model::EffectKind::{GearMesh, LoadZone, Unbalance};
@@ -430,6 +431,18 @@ fn model_loop_re_fits_an_opened_machines_effect_when_ticked() {
     h.run_steps(3);
     assert_eq!(h.state().session.model.refit_given, vec![Unbalance]);
     assert_eq!(h.state().session.model.refit_effects(), vec![Unbalance]);
+    // Saved, the file names it as fitted; opened again, its box is ticked from the file.
+    let saved = dir.path().join("go on 2.toml");
+    h.state_mut().execute(Command::SaveMachine(saved.clone()));
+    let text = std::fs::read_to_string(&saved).unwrap();
+    assert!(text.contains("fitted_effects = [\"unbalance\"]"), "{text}");
+    h.state_mut().execute(Command::LoadMachinePreset("mfs_inner".into()));
+    h.state_mut().execute(Command::OpenMachine(saved));
+    h.run_steps(3);
+    let last = h.state().session.messages.last().map(|m| m.text.clone()).unwrap_or_default();
+    assert!(last.contains("fitted_effects (unbalance) are ticked"), "{last}");
+    assert_eq!(h.state().session.model.refit_effects(), vec![Unbalance]);
+    assert!(h.state().session.model.machine.fitted_effects.is_empty(), "the box, not the machine, says what is re-fitted");
     h.get_by_label("re-fit").click();
     h.run_steps(3);
     assert!(h.state().session.model.refit_effects().is_empty());

@@ -299,30 +299,40 @@ fn assert_shaft_forces_round(r: ShaftForcesRound) {
     }
 }
 
-/// A round's diagnosis of a gear-base record with both shaft-rate forces hidden (unbalance
-/// `truth.0` kg·m, misalignment `truth.1` as (2×, 1×) N, `snr_db`, `seed`)
-/// from a model with both applied at `start` and its noise at `model_snr_db`, re-fitting them
-/// as the loop's round after both were applied does: both calibrated within 3 % of their
-/// truths, and nothing missing.
-fn assert_force_pair_calibrated(truth: (f64, (f64, f64)), snr_db: f64, seed: u64, start: (f64, f64), model_snr_db: f64) {
+/// A round's diagnosis with both shaft-rate forces applied: the truth (gear base) with an
+/// unbalance, a misalignment (2×, 1×) and noise; the model with both on at the values the
+/// loop's last round gave them (a misalignment's 1× a quarter of its 2×) and its noise.
+struct ForcePairRound {
+    unbalance_kg_m: f64,
+    misalignment_n: (f64, f64),
+    snr_db: f64,
+    seed: u64,
+    start_unbalance_kg_m: f64,
+    start_misalignment_2x_n: f64,
+    model_snr_db: f64,
+}
+
+/// Re-fitting both forces as the loop's round after both were applied does: both calibrated
+/// within 3 % of their truths, and nothing missing.
+fn assert_force_pair_calibrated(r: ForcePairRound) {
     use twinscope::compare::{diagnose, Param};
     use EffectKind::{Misalignment, Noise, Unbalance};
     let base = model::preset(GEAR).unwrap();
-    let measured = shaft_forces_record(&base, truth.0, truth.1, snr_db, seed);
+    let measured = shaft_forces_record(&base, r.unbalance_kg_m, r.misalignment_n, r.snr_db, r.seed);
     let mut model_m = base.clone();
     for k in [Unbalance, Misalignment, Noise] {
         model_m.effects.enable(k);
     }
-    Param::UnbalanceKgM.set(&mut model_m, start.0);
+    Param::UnbalanceKgM.set(&mut model_m, r.start_unbalance_kg_m);
     let mis = model_m.effects.misalignment.as_mut().unwrap();
-    (mis.force_2x_n, mis.force_1x_n) = (start.1, start.1 / 4.0);
-    model_m.effects.noise.as_mut().unwrap().snr_db = model_snr_db;
+    (mis.force_2x_n, mis.force_1x_n) = (r.start_misalignment_2x_n, r.start_misalignment_2x_n / 4.0);
+    model_m.effects.noise.as_mut().unwrap().snr_db = r.model_snr_db;
     let opts = LoopOptions { refit_effects: vec![Unbalance, Misalignment], ..LoopOptions::default() };
     assert!(opts.force_pair_grid, "the default since session 68");
     let (_, d) = diagnose(&model_m, &measured, &opts, &|_, _| true).unwrap();
-    eprintln!("both forces applied, seed {seed}: calibration {:?}, objective {:.2}; {}", d.calibration.parameters, d.calibration.objective_after, d.verdict);
+    eprintln!("both forces applied, seed {}: calibration {:?}, objective {:.2}; {}", r.seed, d.calibration.parameters, d.calibration.objective_after, d.verdict);
     let value = |p: Param| d.calibration.parameters.iter().find(|x| x.0 == p).map(|x| x.1).unwrap();
-    for (p, t) in [(Param::UnbalanceKgM, truth.0), (Param::Misalignment2xN, truth.1 .0)] {
+    for (p, t) in [(Param::UnbalanceKgM, r.unbalance_kg_m), (Param::Misalignment2xN, r.misalignment_n.0)] {
         assert!((value(p) / t - 1.0).abs() < 0.03, "{} {:.4e} for {t:.4e}", p.name(), value(p));
     }
     assert_eq!(d.best, None, "{}", d.verdict);
@@ -338,7 +348,7 @@ fn assert_force_pair_calibrated(truth: (f64, (f64, f64)), snr_db: f64, seed: u64
 /// from the model with both applied, calibrates both within 3 % and finds nothing missing.
 #[test]
 fn the_calibration_fits_an_applied_unbalance_and_misalignment_together_to_their_truth() {
-    assert_force_pair_calibrated((3.408e-3, (11.27, 2.817)), 12.9, 6711, (3.543e-3, 10.41), 20.0);
+    assert_force_pair_calibrated(ForcePairRound { unbalance_kg_m: 3.408e-3, misalignment_n: (11.27, 2.817), snr_db: 12.9, seed: 6711, start_unbalance_kg_m: 3.543e-3, start_misalignment_2x_n: 10.41, model_snr_db: 20.0 });
 }
 
 /// The same pair farther off (session 69's never-run machine 6911, gear base, unbalance
@@ -350,7 +360,7 @@ fn the_calibration_fits_an_applied_unbalance_and_misalignment_together_to_their_
 /// reaches it: both within 3 % and nothing missing.
 #[test]
 fn the_joint_grid_reaches_a_pair_of_forces_a_fifth_off_their_truth() {
-    assert_force_pair_calibrated((2.706e-3, (14.16, 3.539)), 10.0, 6911, (3.288e-3, 11.30), 10.25);
+    assert_force_pair_calibrated(ForcePairRound { unbalance_kg_m: 2.706e-3, misalignment_n: (14.16, 3.539), snr_db: 10.0, seed: 6911, start_unbalance_kg_m: 3.288e-3, start_misalignment_2x_n: 11.30, model_snr_db: 10.25 });
 }
 
 fn assert_control(preset: &str, seed: u64) {

@@ -71,8 +71,11 @@ fn hidden_load_zone_is_found_and_the_error_falls() {
     assert!(!model_m.effects.is_on(EffectKind::LoadZone) && truth.effects.is_on(EffectKind::LoadZone));
     truth.duration_s = 2.0;
     let measured = model::simulate(&truth).unwrap();
-    let (_, history, _) = run_loop(&model_m, &measured, 2, &opts, &|_, _| true).unwrap();
+    let (fin, history, _) = run_loop(&model_m, &measured, 2, &opts, &|_, _| true).unwrap();
     eprintln!("true {true_param:?}, SNR {snr:.1} dB; history {:?}", history.iter().map(|r| (r.envelope_nrmse, r.applied)).collect::<Vec<_>>());
+    // The final machine names what the loop fitted, so that a loop going on from its file re-fits it.
+    assert!(fin.fitted_effects.contains(&EffectKind::LoadZone), "{:?}", fin.fitted_effects);
+    assert_eq!(model::Machine::from_toml(&fin.to_toml(), "saved").unwrap().fitted_effects, fin.fitted_effects);
     // Round 1 ranks load_zone first and applies it ...
     assert_eq!(history[0].applied, Some(EffectKind::LoadZone), "round 1 verdict: {}", history[0].verdict);
     assert!(history[0].verdict.starts_with("load_zone"), "{}", history[0].verdict);
@@ -110,6 +113,7 @@ fn a_loop_that_adds_nothing_ends_on_its_calibrated_machine() {
     let (fin, history, last) = run_loop(&m, &measured, 1, &opts, &|_, _| true).unwrap();
     assert_eq!(history.len(), 1);
     assert_eq!(history[0].applied, None, "{}", history[0].verdict);
+    assert!(fin.fitted_effects.is_empty(), "nothing applied, nothing to re-fit: {:?}", fin.fitted_effects);
     assert!(!last.calibration.parameters.is_empty());
     for (p, v) in &last.calibration.parameters {
         assert_eq!(p.get(&fin), Some(*v), "{} of the final machine against its calibration", p.name());

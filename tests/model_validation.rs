@@ -246,6 +246,10 @@ fn unknown_parameters_and_effects_are_rejected() {
     expect("zero substeps", &edit(CWRU, "substeps = 8", "substeps = 0"), Want::Invalid("substeps"));
     expect("negative fs", &edit(CWRU, "fs_hz = 12000.0", "fs_hz = -12000.0"), Want::Invalid("fs_hz"));
     expect("too short", &edit(CWRU, "duration_s = 2.0", "duration_s = 1e-4"), Want::Invalid("duration_s"));
+    // What a saved loop fitted must be an effect the machine has on, and a known one.
+    expect("fitted effect off", &edit(CWRU, "seed = 1", "seed = 1\nfitted_effects = [\"load_zone\"]"), Want::Invalid("fitted_effects"));
+    expect("unknown fitted effect", &edit(CWRU, "seed = 1", "seed = 1\nfitted_effects = [\"warp_drive\"]"), Want::Parse("warp_drive"));
+    prepare(&format!("{}\n[effects.load_zone]\n", edit(CWRU, "seed = 1", "seed = 1\nfitted_effects = [\"load_zone\"]"))).unwrap();
 }
 
 #[test]

@@ -81,6 +81,7 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
             let bad = |message: String| BatchError::Job { path: job.path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "job".into()), message };
             let (m, opts) = (spec.machine(&job.base()).map_err(bad)?, spec.options(&chain).map_err(bad)?);
             crate::compare::calibrate::check_refit_effects(&m, &opts.refit_effects).map_err(|e| bad(format!("`model_loop.refit`: {e}")))?;
+            crate::compare::calibrate::check_refit_effects(&m, &m.fitted_effects).map_err(|e| bad(format!("the machine's `fitted_effects`: {e}")))?;
             Some((spec.rounds, m, opts))
         }
         None => None,

@@ -412,9 +412,9 @@ pub struct LoopOptions {
     /// shaft ([`LoopOptions::refit_effects`]), their two amplitudes are also fitted jointly
     /// after its line searches ([`fit_force_pair`]): a grid of ±30 % of each in steps of 3 %
     /// ([`FORCE_PAIR_COARSE`]; ±12 % in sessions 68–69), then ±2 % in steps of 1 % around the
-    /// best, the lowest kept. The two share the 1× line,
-    /// so their joint valley is a narrow diagonal (one force up, the other down) that line
-    /// searches along each amplitude in turn do not follow: on session 67's drawn machine
+    /// best, the lowest kept. The two share the 1× line, so their joint valley is a narrow
+    /// diagonal (one force up, the other down) that line searches along each amplitude in turn
+    /// do not follow: on session 67's drawn machine
     /// 6711 both forces sat within 8 % of their truths and the loop stopped at 1.6 × the true
     /// structure's objective (docs/loop-notebook.md "Session 68"); on session 69's never-run
     /// machines 6911 and 6913 the truth lay 16–23 % along that valley, beyond ±12 %, and the
@@ -1259,6 +1259,21 @@ pub fn force_pair_evaluations() -> usize {
     [FORCE_PAIR_COARSE, FORCE_PAIR_FINE].iter().map(|&(_, n)| ((2 * n + 1) * (2 * n + 1) - 1) as usize).sum()
 }
 
+/// [`fit_force_pair`]'s grids in words, from [`FORCE_PAIR_COARSE`] and [`FORCE_PAIR_FINE`]:
+/// "±30 % of each in 3 % steps, then ±2 % in 1 % steps around the best (464 evaluations)".
+pub fn force_pair_grid_in_words() -> String {
+    let pct = |x: f64| format!("{}", (x * 100.0).round());
+    let [(cs, cn), (fs, fn_)] = [FORCE_PAIR_COARSE, FORCE_PAIR_FINE];
+    format!(
+        "±{} % of each in {} % steps, then ±{} % in {} % steps around the best ({} evaluations)",
+        pct(cs * f64::from(cn)),
+        pct(cs),
+        pct(fs * f64::from(fn_)),
+        pct(fs),
+        force_pair_evaluations()
+    )
+}
+
 /// Fits the amplitudes of a pair of forces `(a, b)` of `m` jointly, from `m` as `fit` left
 /// it ([`LoopOptions::force_pair_grid`]): every point of a grid of their scales
 /// ([`FORCE_PAIR_COARSE`]) is evaluated in parallel, then a finer grid around the best
@@ -1348,10 +1363,11 @@ pub fn calibration_parameters(m: &Machine) -> Vec<Param> {
 }
 
 /// The parameters calibration fits under `opts`: [`calibration_parameters`], then those of every
-/// effect in `opts.refit_effects` that `m` has on.
+/// effect in `opts.refit_effects` and in the machine's own [`Machine::fitted_effects`] (what a
+/// loop that saved it fitted) that `m` has on.
 pub fn calibration_parameters_for(m: &Machine, opts: &LoopOptions) -> Vec<Param> {
     let mut v = calibration_parameters(m);
-    for k in &opts.refit_effects {
+    for k in opts.refit_effects.iter().chain(&m.fitted_effects) {
         if m.effects.is_on(*k) {
             for p in Param::of_effect(*k) {
                 if !v.contains(&p) {
@@ -1368,17 +1384,27 @@ pub fn calibration_parameters_for(m: &Machine, opts: &LoopOptions) -> Vec<Param>
 /// parameter to fit. A loop started from a machine a former loop saved re-fits what that loop
 /// applied only when told so, as `run_loop` re-fits what it applies itself.
 pub fn check_refit_effects(m: &Machine, effects: &[EffectKind]) -> Result<(), CompareError> {
-    for k in effects {
-        let reason = if !m.effects.is_on(*k) {
-            format!("{}: the machine does not have it on (switch it on, or leave it out)", k.name())
-        } else if Param::of_effect(*k).is_empty() {
-            format!("{}: it has no parameter the calibration fits", k.name())
-        } else {
-            continue;
-        };
-        return Err(CompareError::Parameter { name: "refit", reason });
+    match effects.iter().find_map(|k| refit_refusal(m, *k)) {
+        Some(reason) => Err(CompareError::Parameter { name: "refit", reason }),
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// Why the calibration cannot re-fit effect `k` of `m`, or `None` when it can: the effect
+/// must be on and have a parameter the calibration fits ([`Param::of_effect`]).
+pub fn refit_refusal(m: &Machine, k: EffectKind) -> Option<String> {
+    if !m.effects.is_on(k) {
+        Some(format!("{}: the machine does not have it on (switch it on, or leave it out)", k.name()))
+    } else if Param::of_effect(k).is_empty() {
+        Some(format!("{}: it has no parameter the calibration fits", k.name()))
+    } else {
+        None
+    }
+}
+
+/// The effects `m` has on that the calibration can re-fit ([`refit_refusal`]).
+pub fn refittable_effects(m: &Machine) -> Vec<EffectKind> {
+    m.effects.enabled().into_iter().filter(|k| refit_refusal(m, *k).is_none()).collect()
 }
 
 #[cfg(test)]
@@ -1399,6 +1425,15 @@ mod tests {
         m.effects.enable(EffectKind::NonlinearContact);
         let none = check_refit_effects(&m, &[EffectKind::LoadZone, EffectKind::NonlinearContact]).unwrap_err().to_string();
         assert!(none.contains("nonlinear_contact") && none.contains("no parameter"), "{none}");
+        let fits = refittable_effects(&m);
+        assert!(fits.contains(&EffectKind::LoadZone) && !fits.contains(&EffectKind::NonlinearContact), "{fits:?}");
+        // What a saved machine names as fitted is re-fitted without being asked.
+        let plain = LoopOptions::default();
+        assert!(!calibration_parameters_for(&m, &plain).contains(&Param::RadialLoadN));
+        m.fitted_effects = vec![EffectKind::LoadZone];
+        assert!(calibration_parameters_for(&m, &plain).contains(&Param::RadialLoadN));
+        m.effects.disable(EffectKind::LoadZone);
+        assert!(!calibration_parameters_for(&m, &plain).contains(&Param::RadialLoadN), "an effect switched off is not fitted");
     }
 
     #[test]
@@ -1453,6 +1488,7 @@ mod tests {
         assert!(j0 > 1.0 && fit.objective_after < 1e-3 * j0, "{j0} → {}", fit.objective_after);
         assert_eq!(fit.evaluations, 1 + force_pair_evaluations());
         assert_eq!(force_pair_evaluations(), 440 + 24);
+        assert_eq!(force_pair_grid_in_words(), "±30 % of each in 3 % steps, then ±2 % in 1 % steps around the best (464 evaluations)");
         // Without a misalignment there is no pair to fit.
         let mut lone = m.clone();
         lone.effects.misalignment = None;

@@ -1916,16 +1916,14 @@ pub fn refit_to_go_on(history: &[Round], given: &[EffectKind]) -> Vec<EffectKind
 
 /// The command that goes on from a machine a loop saved: `twinscope diagnose MEASURED
 /// --machine MACHINE`, then `args` (how the measurement was read and compared: its channel,
-/// its envelope band), then a `--refit` for each of `refit` ([`refit_to_go_on`]); every word
-/// quoted when it holds a space or a character the shell reads, to be copied.
-pub fn go_on_command(measured: &std::path::Path, machine: &std::path::Path, args: &[String], refit: &[EffectKind]) -> String {
+/// its envelope band); every word quoted when it holds a space or a character the shell reads,
+/// to be copied. What the loop fitted goes with the machine ([`Machine::fitted_effects`]), so
+/// no `--refit` is needed.
+pub fn go_on_command(measured: &std::path::Path, machine: &std::path::Path, args: &[String]) -> String {
     let word = |s: &str| shlex::try_quote(s).map_or_else(|_| s.to_string(), |q| q.into_owned());
     let mut line = format!("twinscope diagnose {} --machine {}", word(&measured.to_string_lossy()), word(&machine.to_string_lossy()));
     for a in args {
         line += &format!(" {}", word(a));
-    }
-    for k in refit {
-        line += &format!(" --refit {}", k.name());
     }
     line
 }
@@ -2124,6 +2122,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
     // A diagnosis of `current` already made (by a kept replacement).
     let mut pending: Option<(Machine, Diagnosis)> = None;
     // Every applied effect's parameters join the calibration of the rounds after it.
+    let given_refit = opts.refit_effects.clone();
     let mut opts = opts.clone();
     for r in 1..=rounds {
         let (cal, d) = match pending.take() {
@@ -2216,6 +2215,10 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
         break;
     }
     let last = last.ok_or(LoopError::Cancelled)?;
+    // The final machine records what a loop going on from it re-fits.
+    let given: Vec<EffectKind> = m.fitted_effects.iter().chain(&given_refit).copied().collect();
+    current.fitted_effects = refit_to_go_on(&history, &given);
+    current.fitted_effects.retain(|k| current.effects.is_on(*k));
     Ok((current, history, last))
 }
 
@@ -2767,11 +2770,11 @@ mod tests {
     fn the_command_to_go_on_quotes_a_path_the_shell_would_split() {
         use std::path::Path;
         let band = ["--band-hz".to_string(), "1800,3000".to_string()];
-        let plain = go_on_command(Path::new("data/105.mat"), Path::new("go1.toml"), &band, &[EffectKind::LoadZone, EffectKind::Noise]);
+        let plain = go_on_command(Path::new("data/105.mat"), Path::new("go1.toml"), &band);
         assert!(plain.starts_with("twinscope diagnose data/105.mat --machine go1.toml --band-hz "), "{plain}");
-        assert_eq!(shlex::split(&plain).unwrap(), ["twinscope", "diagnose", "data/105.mat", "--machine", "go1.toml", "--band-hz", "1800,3000", "--refit", "load_zone", "--refit", "noise"]);
+        assert_eq!(shlex::split(&plain).unwrap(), ["twinscope", "diagnose", "data/105.mat", "--machine", "go1.toml", "--band-hz", "1800,3000"]);
         let channel = ["--channel".to_string(), "drive end".to_string()];
-        let spaced = go_on_command(Path::new("my data/rec 1.wav"), Path::new("it's.toml"), &channel, &[]);
+        let spaced = go_on_command(Path::new("my data/rec 1.wav"), Path::new("it's.toml"), &channel);
         assert_eq!(shlex::split(&spaced).unwrap(), ["twinscope", "diagnose", "my data/rec 1.wav", "--machine", "it's.toml", "--channel", "drive end"]);
     }
 

@@ -236,17 +236,21 @@ impl Workbench {
                 }
                 Err(e) => self.session.tell(Level::Error, e),
             },
-            Command::OpenMachine(p) => match jobs::read_machine(&p) {
+            Command::OpenMachine(p) => match jobs::read_machine(&p).and_then(|m| crate::compare::calibrate::check_refit_effects(&m, &m.fitted_effects).map(|()| m).map_err(|e| format!("{}: fitted_effects: {e}", p.display()))) {
                 Ok(machine) => {
                     let label = p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned());
-                    let fitted_on: Vec<&str> = machine.effects.enabled().into_iter().filter(|k| !crate::compare::Param::of_effect(*k).is_empty()).map(|k| k.name()).collect();
+                    let names = |ks: Vec<crate::model::EffectKind>| ks.into_iter().map(|k| k.name()).collect::<Vec<_>>().join(", ");
+                    let hint = match (machine.fitted_effects.is_empty(), crate::compare::calibrate::refittable_effects(&machine)) {
+                        (false, _) => format!("; its fitted_effects ({}) are ticked \"re-fit\": every search's calibration fits them again", names(machine.fitted_effects.clone())),
+                        (true, on) if !on.is_empty() => format!("; it has {} on: tick \"re-fit\" beside those a loop applied, so that the calibration fits them again (as `diagnose --refit`)", names(on)),
+                        _ => String::new(),
+                    };
                     let cleared = self.session.model.start_again(ModelState::of_machine(&label, machine));
-                    let hint = if fitted_on.is_empty() { String::new() } else { format!("; it has {} on: tick \"re-fit\" beside those a loop applied, so that the calibration fits them again (as `diagnose --refit`)", fitted_on.join(", ")) };
                     self.session.tell(Level::Info, format!("machine read from {}; the history of rounds ({cleared} rounds) was cleared{hint}", p.display()));
                 }
                 Err(e) => self.session.tell(Level::Error, format!("machine not changed: {e}")),
             },
-            Command::SaveMachine(p) => match jobs::write_machine(&self.session.model.machine, &p) {
+            Command::SaveMachine(p) => match jobs::write_machine(&self.session.model.machine_to_save(), &p) {
                 Ok(()) => self.session.tell(Level::Info, format!("machine written to {}", p.display())),
                 Err(e) => self.session.tell(Level::Error, e),
             },
@@ -650,6 +654,12 @@ impl Workbench {
         model.replace_machine(machine);
         model.history = f.history.clone();
         model.refit_given = f.refit.clone();
+        // A machine_toml that names fitted_effects (a file edited by hand): its boxes ticked.
+        for k in std::mem::take(&mut model.machine.fitted_effects) {
+            if !model.refit_given.contains(&k) {
+                model.refit_given.push(k);
+            }
+        }
         model.result = None;
         model.simulated_id = None;
         model.pending_replacement = None;

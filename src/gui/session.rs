@@ -167,7 +167,8 @@ pub struct ModelState {
     pub loop_start: Option<Machine>,
     /// Effects on in the machine the user asked every search's calibration to re-fit, as
     /// `diagnose --refit` (those the history applied are re-fitted anyway): to go on from a
-    /// machine a loop saved. Empty on a new start.
+    /// machine a loop saved. On a new start, the `fitted_effects` its machine file names
+    /// (none for a preset).
     pub refit_given: Vec<EffectKind>,
 }
 
@@ -200,8 +201,20 @@ impl ModelState {
 
     /// A new start from `machine` (checked by the caller), named `label` (a preset's name or a
     /// file's): no search, no rounds.
-    pub fn of_machine(label: &str, machine: Machine) -> Self {
-        Self { preset: label.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new(), loop_start: None, refit_given: Vec::new() }
+    /// The effects a loop that saved `machine` fitted ([`Machine::fitted_effects`]) become the
+    /// ticked "re-fit" boxes ([`ModelState::refit_given`]), which say from then on what is re-fitted.
+    pub fn of_machine(label: &str, mut machine: Machine) -> Self {
+        let refit_given = std::mem::take(&mut machine.fitted_effects);
+        Self { preset: label.into(), machine, revision: 1, result: None, history: Vec::new(), simulated_id: None, pending_replacement: None, refused_replacements: Vec::new(), loop_start: None, refit_given }
+    }
+
+    /// The machine as "Save machine…" writes it: with the effects every search re-fits
+    /// ([`ModelState::refit_effects`]) as its `fitted_effects`, so that a loop going on from the
+    /// file (`diagnose --machine`, "Open machine…") re-fits them too.
+    pub fn machine_to_save(&self) -> Machine {
+        let mut m = self.machine.clone();
+        m.fitted_effects = self.refit_effects().into_iter().filter(|k| crate::compare::calibrate::refit_refusal(&m, *k).is_none()).collect();
+        m
     }
 
     /// Starts again from `fresh` (a preset's or a file's new start), keeping the revision
@@ -545,6 +558,14 @@ mod tests {
         s.history.push(Round { round: 1, applied: Some(Noise), ..Default::default() });
         s.history.push(Round { round: 2, applied: Some(Unbalance), ..Default::default() });
         assert_eq!(s.refit_effects(), vec![Unbalance, Noise]);
+        // Saved, the machine names what every search re-fits and it has on; opened, those are ticked.
+        assert_eq!(s.machine_to_save().fitted_effects, vec![Unbalance], "the noise the rounds applied is not on in this machine");
+        s.machine.effects.enable(Noise);
+        let saved = s.machine_to_save();
+        assert_eq!(saved.fitted_effects, vec![Unbalance, Noise]);
+        assert!(s.machine.fitted_effects.is_empty(), "the boxes, not the machine, say what is re-fitted");
+        let opened = ModelState::of_machine("go2.toml", saved);
+        assert_eq!((opened.refit_given.as_slice(), opened.machine.fitted_effects.as_slice()), (&[Unbalance, Noise][..], &[][..]));
         // A new start forgets them.
         let fresh = ModelState::from_preset("mfs_inner").unwrap();
         s.start_again(fresh);

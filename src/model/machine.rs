@@ -1,7 +1,7 @@
 //! The machine description (TOML): shafts, bearings, faults, gear pairs, couplings, transfer
 //! path, sensor, output and physical effects, all in SI units with the unit in the name.
 
-use super::effects::Effects;
+use super::effects::{EffectKind, Effects};
 use super::error::ModelError;
 use crate::kinematics::{lookup_bearing, BearingGeometry};
 use serde::{Deserialize, Serialize};
@@ -25,6 +25,13 @@ pub struct Machine {
     /// Seed for every random quantity (slip, roughness, noise).
     #[serde(default)]
     pub seed: u64,
+    /// Effects whose parameters a loop fitted to a measurement, as the machine a loop ends on
+    /// records them (`diagnose --save-machine`, a batch job's final machine, the app's "Save
+    /// machine…"): a calibration of this machine re-fits them too, as a loop re-fits what it
+    /// applies (`compare::calibrate::calibration_parameters_for`). Each must be on in a file
+    /// read. Empty for a preset.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fitted_effects: Vec<EffectKind>,
     /// Shafts with their speeds.
     #[serde(default, rename = "shaft")]
     pub shafts: Vec<Shaft>,
@@ -282,6 +289,11 @@ impl Machine {
     pub fn from_toml(text: &str, source_name: &str) -> Result<Machine, ModelError> {
         let m: Machine = toml::from_str(text).map_err(|e| ModelError::Parse { source_name: source_name.to_string(), message: e.to_string().trim().replace('\n', " ") })?;
         m.validate()?;
+        // Checked on reading only: a loop may switch off an effect a machine lists, which the
+        // calibration then leaves out.
+        if let Some(k) = m.fitted_effects.iter().find(|k| !m.effects.is_on(**k)) {
+            return Err(m.invalid("fitted_effects", k.name(), "names an effect this machine does not have on: switch it on, or take it out of the list"));
+        }
         Ok(m)
     }
 

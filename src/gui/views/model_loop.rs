@@ -124,7 +124,7 @@ impl ModelLoopView {
                         ui.weak(if on { "switch" } else { "" });
                     }
                 }
-                if on && !Param::of_effect(k).is_empty() {
+                if crate::compare::calibrate::refit_refusal(d, k).is_none() {
                     let mut r = refit.contains(&k);
                     let by_loop = applied.contains(&k);
                     let resp = ui.add_enabled(!by_loop, egui::Checkbox::new(&mut r, "re-fit")).on_hover_text(format!("every search's calibration also fits {}'s parameters, as the loop re-fits what it applies (`diagnose --refit {}`): to go on from a machine a loop saved", k.name(), k.name())).on_disabled_hover_text("applied by this loop's rounds: every search re-fits it");
@@ -187,7 +187,7 @@ impl ModelLoopView {
             ui.checkbox(&mut s.loop_coupled_forces, "coupled forces: an unbalance or misalignment trial beside the other, applied, fits the two together")
                 .on_hover_text("an unbalance and a misalignment on one shaft share the 1× line, and the force applied first takes up part of the other's: its valley then is gone (a misalignment 7 % high hid a ±10 % unbalance valley). The new force is fitted at the applied one's amplitude and at ±3, 6, 9 and 12 % of it and at 0.5–0.8 and 1.2–1.4 of it (applied without the other, an unbalance was fitted up to 90 % high and 21 % low, a misalignment 97 % high), the lowest kept: fifteen more fits of that trial, in rounds where such a force is applied only");
             ui.checkbox(&mut s.loop_force_pair_grid, "force pair grid: an applied unbalance and misalignment on one shaft are re-fitted jointly on a grid")
-                .on_hover_text("the two share the 1× line, so their valley is a narrow diagonal (one up, the other down) that line searches along one amplitude at a time do not cross: a round's calibration also evaluates a grid of ±30 % of each in 3 % steps, then ±2 % in 1 % steps around the best (464 evaluations), in rounds where both are applied only");
+                .on_hover_text(format!("the two share the 1× line, so their valley is a narrow diagonal (one up, the other down) that line searches along one amplitude at a time do not cross: a round's calibration also evaluates a grid of {}, in rounds where both are applied only", crate::compare::calibrate::force_pair_grid_in_words()));
             ui.checkbox(&mut s.loop_scan_force_amplitudes, "scan forces: every trial scans an unbalance, misalignment or belt force on a grid")
                 .on_hover_text("a periodic force's objective has a narrow minimum among dips decades away: a line search alone can close on the wrong one for a strong force (three times the evaluations for those parameters)");
             ui.checkbox(&mut s.loop_fine_forces, "fine forces: an unbalance, misalignment or belt force gets twice the line-search evaluations")
