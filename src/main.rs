@@ -66,6 +66,24 @@ enum Command {
     },
     /// List the bundled chain presets and machine presets.
     Presets,
+    /// The spectral kurtosis of a signal over frame lengths half an octave apart (Antoni's
+    /// kurtogram) and its most impulsive bands: the band to demodulate for an envelope analysis.
+    Kurtogram {
+        /// A .wav, .csv or .mat file.
+        file: PathBuf,
+        /// Channel/variable of the file.
+        #[arg(long)]
+        channel: Option<String>,
+        /// Narrowest band, Hz (default: 400, twice the comparison's 0–200 Hz envelope spectrum).
+        #[arg(long)]
+        min_band_width_hz: Option<f64>,
+        /// Bands to print, most impulsive first (each overlapping none printed before it).
+        #[arg(long, default_value_t = 5)]
+        top: usize,
+        /// Write every level's spectral kurtosis and the chosen band as JSON.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Compare a simulated signal with a measured one: metrics per domain and the residual map.
     Compare {
         /// Measured signal (.wav, .csv, .mat).
@@ -84,6 +102,10 @@ enum Command {
         /// Demodulation band, Hz, e.g. `1800,3000`.
         #[arg(long, value_delimiter = ',')]
         band_hz: Option<Vec<f64>>,
+        /// Demodulate in the measurement's most impulsive band, from its kurtogram (see
+        /// `twinscope kurtogram`), instead of `--band-hz`.
+        #[arg(long, conflicts_with = "band_hz")]
+        band_from_kurtogram: bool,
         /// Catalogue bearing for line labels (default: from the signal metadata).
         #[arg(long)]
         bearing: Option<String>,
@@ -116,6 +138,10 @@ enum Command {
         /// Demodulation band, Hz, e.g. `1800,3000`.
         #[arg(long, value_delimiter = ',')]
         band_hz: Option<Vec<f64>>,
+        /// Demodulate in the measurement's most impulsive band, from its kurtogram (see
+        /// `twinscope kurtogram`), instead of `--band-hz`.
+        #[arg(long, conflicts_with = "band_hz")]
+        band_from_kurtogram: bool,
         /// Effects the starting model has on (default parameters; calibrated where they have a
         /// calibration parameter, e.g. `noise`).
         #[arg(long = "with", value_name = "EFFECT")]
@@ -534,9 +560,10 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Some(Command::Kurtogram { file, channel, min_band_width_hz, top, json }) => kurtogram_cmd(&file, channel, min_band_width_hz, top, json.as_deref()),
         Some(Command::Bench(args)) => bench::run(&args),
-        Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, band_hz, bearing, fault_hz, path_correction as usize, json.as_deref()),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, with, refit, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, band_hz, &with, &refit, rounds, &step, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, band_from_kurtogram, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, bearing, fault_hz, path_correction as usize, json.as_deref(), cli.quiet),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, band_from_kurtogram, with, refit, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, &with, &refit, rounds, &step, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, step, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
             confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, &step, json.as_deref(), search.options())
@@ -637,6 +664,34 @@ fn line_label(m: &twinscope::kinematics::LineMatch) -> String {
     }
 }
 
+fn kurtogram_cmd(file: &Path, channel: Option<String>, min_band_width_hz: Option<f64>, top: usize, json: Option<&Path>) -> Result<()> {
+    use twinscope::compare::demodulation_band::kurtogram_params_for;
+    let s = io::load(file, &io::LoadOptions { channel, ..Default::default() })?;
+    let mut p = kurtogram_params_for(s.fs_hz, &twinscope::compare::CompareOptions::default());
+    if let Some(w) = min_band_width_hz {
+        p.min_band_width_hz = w;
+    }
+    let k = twinscope::dsp::kurtogram::kurtogram(&s.samples, s.fs_hz, &p).context("kurtogram")?;
+    let [lo, hi] = p.search_band_hz.unwrap_or([0.0, s.fs_hz / 2.0]);
+    println!("{}: {} samples at {} Hz; frames of {} samples (75 % overlap, Hann); bands at least {:.0} Hz wide within {lo:.0}–{hi:.0} Hz", file.display(), s.samples.len(), s.fs_hz, k.levels.iter().map(|l| l.nperseg.to_string()).collect::<Vec<_>>().join(", "), p.min_band_width_hz);
+    println!("{:>4} {:>16} {:>10} {:>8} {:>8}", "rank", "band Hz", "centre Hz", "SK", "nperseg");
+    let mut shown: Vec<twinscope::dsp::kurtogram::KurtogramBand> = Vec::new();
+    for b in k.ranked_bands(s.fs_hz, &p) {
+        if shown.len() == top {
+            break;
+        }
+        if shown.iter().any(|x| x.band_hz[0] < b.band_hz[1] && x.band_hz[1] > b.band_hz[0]) {
+            continue;
+        }
+        println!("{:>4} {:>16} {:>10.0} {:>8.3} {:>8}", shown.len() + 1, format!("{:.0}–{:.0}", b.band_hz[0], b.band_hz[1]), b.centre_hz, b.sk, b.nperseg);
+        shown.push(b);
+    }
+    if let Some(path) = json {
+        std::fs::write(path, serde_json::to_string_pretty(&k)?).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 fn info(file: &Path) -> Result<()> {
     let fi = io::inspect(file).with_context(|| format!("reading {}", file.display()))?;
     println!("file: {}", fi.path.display());
@@ -720,7 +775,39 @@ fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, dur
 }
 
 #[allow(clippy::too_many_arguments)]
-fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>, with: &[String], channel: Option<String>, band_hz: Option<Vec<f64>>, bearing: Option<String>, fault_hz: Option<f64>, path_correction_bands: usize, json: Option<&Path>) -> Result<()> {
+/// The demodulation band asked for on the command line.
+struct Band {
+    /// `--band-hz low,high`.
+    hz: Option<Vec<f64>>,
+    /// `--band-from-kurtogram`.
+    from_kurtogram: bool,
+}
+
+impl Band {
+    /// Sets `opts.envelope_band_hz` from `--band-hz` or the measurement's kurtogram, saying on
+    /// stderr which band the kurtogram chose, or, for a band given or the default, when the
+    /// kurtogram finds the measurement far more impulsive elsewhere. Returns the band set.
+    fn apply(&self, opts: &mut twinscope::compare::CompareOptions, meas: &twinscope::signal::Signal, quiet: bool) -> Result<[f64; 2]> {
+        use twinscope::compare::demodulation_band::{band_advice, demodulation_band};
+        if let Some(b) = &self.hz {
+            anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz (got {})", b.len());
+            opts.envelope_band_hz = [b[0], b[1]];
+        }
+        if self.from_kurtogram {
+            let (_, best) = demodulation_band(meas, opts).context("--band-from-kurtogram")?;
+            opts.envelope_band_hz = best.band_hz;
+            if !quiet {
+                eprintln!("twinscope: demodulation band {:.0}–{:.0} Hz from the measurement's kurtogram (spectral kurtosis {:.2}, frames of {} samples)", best.band_hz[0], best.band_hz[1], best.sk, best.nperseg);
+            }
+        } else if let (false, Some(advice)) = (quiet, band_advice(meas, opts)) {
+            eprintln!("twinscope: note: {advice}");
+        }
+        Ok(opts.envelope_band_hz)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>, with: &[String], channel: Option<String>, band: Band, bearing: Option<String>, fault_hz: Option<f64>, path_correction_bands: usize, json: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare::{self, diagnose::fault_frequency_hz, CompareOptions};
     use twinscope::model::{self, EffectKind};
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
@@ -740,10 +827,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
         }
         (None, None) => anyhow::bail!("give a simulated file or --preset"),
     };
-    if let Some(b) = band_hz {
-        anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz (got {})", b.len());
-        opts.envelope_band_hz = [b[0], b[1]];
-    }
+    band.apply(&mut opts, &meas, quiet)?;
     let bearing_name = bearing.or(meas.meta.bearing.clone()).or(sim.meta.bearing.clone());
     let ff = match (bearing_name, meas.meta.shaft_speed_hz) {
         (Some(b), Some(fr)) => Some(lookup_bearing(&b)?.fault_frequencies(fr)?),
@@ -777,7 +861,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
 }
 
 #[allow(clippy::too_many_arguments)]
-fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band_hz: Option<Vec<f64>>, with: &[String], refit: &[String], rounds: usize, step: &StepArgs, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
+fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band: Band, with: &[String], refit: &[String], rounds: usize, step: &StepArgs, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare;
     use twinscope::model::{self, Machine};
     // How the measurement is read and compared, for the command that goes on from a saved machine.
@@ -785,10 +869,11 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     if let Some(c) = &channel {
         go_on_args.extend(["--channel".to_string(), c.clone()]);
     }
-    if let Some(b) = &band_hz {
-        go_on_args.extend(["--band-hz".to_string(), b.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",")]);
-    }
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
+    let band_set = band.apply(&mut opts.compare, &meas, quiet)?;
+    if band.hz.is_some() || band.from_kurtogram {
+        go_on_args.extend(["--band-hz".to_string(), band_set.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",")]);
+    }
     let mut m = match (machine, preset) {
         (Some(p), _) => Machine::from_toml(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?, &p.display().to_string())?,
         (None, Some(n)) => model::preset(&n)?,
@@ -806,10 +891,6 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         if !quiet {
             eprintln!("twinscope: {} names fitted_effects = {}: the calibration re-fits them, as the loop that saved it did (take them out of the file to keep them fixed)", p.display(), m.fitted_effects.iter().map(|k| k.name()).collect::<Vec<_>>().join(", "));
         }
-    }
-    if let Some(b) = band_hz {
-        anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz");
-        opts.compare.envelope_band_hz = [b[0], b[1]];
     }
     let started = std::time::Instant::now();
     if !quiet {

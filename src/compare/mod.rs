@@ -3,6 +3,7 @@
 //! the model fails.
 
 pub mod calibrate;
+pub mod demodulation_band;
 pub mod diagnose;
 pub mod hidden;
 pub mod joint;

@@ -5,6 +5,7 @@ pub mod drs;
 pub mod envelope;
 pub mod error;
 pub mod fft;
+pub mod kurtogram;
 pub mod lowpass;
 pub mod normalise;
 pub mod path_correction;
