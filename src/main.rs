@@ -787,19 +787,22 @@ impl Band {
     /// Sets `opts.envelope_band_hz` from `--band-hz` or the measurement's kurtogram, saying on
     /// stderr which band the kurtogram chose, or, for a band given or the default, when the
     /// kurtogram finds the measurement far more impulsive elsewhere. Returns the band set.
-    fn apply(&self, opts: &mut twinscope::compare::CompareOptions, meas: &twinscope::signal::Signal, quiet: bool) -> Result<[f64; 2]> {
+    /// `resonances_hz`: the model's ([`twinscope::model::Machine::structural_resonances_hz`]),
+    /// empty when there is no model.
+    fn apply(&self, opts: &mut twinscope::compare::CompareOptions, meas: &twinscope::signal::Signal, resonances_hz: &[f64], quiet: bool) -> Result<[f64; 2]> {
         use twinscope::compare::demodulation_band::{band_advice, demodulation_band};
         if let Some(b) = &self.hz {
             anyhow::ensure!(b.len() == 2, "--band-hz takes two numbers, low,high in Hz (got {})", b.len());
             opts.envelope_band_hz = [b[0], b[1]];
         }
         if self.from_kurtogram {
-            let (_, best) = demodulation_band(meas, opts).context("--band-from-kurtogram")?;
+            let (_, best) = demodulation_band(meas, opts, resonances_hz).context("--band-from-kurtogram")?;
             opts.envelope_band_hz = best.band_hz;
             if !quiet {
-                eprintln!("twinscope: demodulation band {:.0}–{:.0} Hz from the measurement's kurtogram (spectral kurtosis {:.2}, frames of {} samples)", best.band_hz[0], best.band_hz[1], best.sk, best.nperseg);
+                let held = if resonances_hz.is_empty() { String::new() } else { format!(", the most impulsive holding a resonance of the model ({} Hz)", resonances_hz.iter().map(|f| format!("{f:.0}")).collect::<Vec<_>>().join(", ")) };
+                eprintln!("twinscope: demodulation band {:.0}–{:.0} Hz from the measurement's kurtogram (spectral kurtosis {:.2}, frames of {} samples{held})", best.band_hz[0], best.band_hz[1], best.sk, best.nperseg);
             }
-        } else if let (false, Some(advice)) = (quiet, band_advice(meas, opts)) {
+        } else if let (false, Some(advice)) = (quiet, band_advice(meas, opts, resonances_hz)) {
             eprintln!("twinscope: note: {advice}");
         }
         Ok(opts.envelope_band_hz)
@@ -815,19 +818,19 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
     if let Some(f) = fault_hz {
         anyhow::ensure!(f.is_finite() && f > 0.0, "--fault-hz must be a positive frequency in Hz (got {f})");
     }
-    let sim = match (simulated, preset) {
-        (Some(p), _) => io::load(p, &io::LoadOptions::default())?,
+    let (sim, resonances_hz) = match (simulated, preset) {
+        (Some(p), _) => (io::load(p, &io::LoadOptions::default())?, Vec::new()),
         (None, Some(name)) => {
             let mut m = model::preset(&name)?;
             for n in with {
                 m.effects.enable(EffectKind::parse_named(n).map_err(anyhow::Error::msg)?);
             }
             opts.fault_frequency_hz = opts.fault_frequency_hz.or_else(|| fault_frequency_hz(&m, &meas));
-            model::simulate(&m)?
+            (model::simulate(&m)?, m.structural_resonances_hz())
         }
         (None, None) => anyhow::bail!("give a simulated file or --preset"),
     };
-    band.apply(&mut opts, &meas, quiet)?;
+    band.apply(&mut opts, &meas, &resonances_hz, quiet)?;
     let bearing_name = bearing.or(meas.meta.bearing.clone()).or(sim.meta.bearing.clone());
     let ff = match (bearing_name, meas.meta.shaft_speed_hz) {
         (Some(b), Some(fr)) => Some(lookup_bearing(&b)?.fault_frequencies(fr)?),
@@ -870,10 +873,6 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         go_on_args.extend(["--channel".to_string(), c.clone()]);
     }
     let meas = io::load(measured, &io::LoadOptions { channel, ..Default::default() })?;
-    let band_set = band.apply(&mut opts.compare, &meas, quiet)?;
-    if band.hz.is_some() || band.from_kurtogram {
-        go_on_args.extend(["--band-hz".to_string(), band_set.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",")]);
-    }
     let mut m = match (machine, preset) {
         (Some(p), _) => Machine::from_toml(&std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?, &p.display().to_string())?,
         (None, Some(n)) => model::preset(&n)?,
@@ -884,6 +883,10 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     }
     step.apply(&mut m);
     m.validate()?;
+    let band_set = band.apply(&mut opts.compare, &meas, &m.structural_resonances_hz(), quiet)?;
+    if band.hz.is_some() || band.from_kurtogram {
+        go_on_args.extend(["--band-hz".to_string(), band_set.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",")]);
+    }
     opts.refit_effects = refit.iter().map(|n| twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)).collect::<Result<_>>()?;
     compare::calibrate::check_refit_effects(&m, &opts.refit_effects).context("--refit")?;
     if let (Some(p), false) = (machine, m.fitted_effects.is_empty()) {

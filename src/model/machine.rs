@@ -330,6 +330,13 @@ impl Machine {
         self.shafts.iter().position(|s| s.name == name)
     }
 
+    /// The structural resonances the model's impacts ring, Hz: every bearing's sprung-mass
+    /// resonator, then the casing modes when that effect is on.
+    pub fn structural_resonances_hz(&self) -> Vec<f64> {
+        let casing = self.effects.casing_modes.iter().flat_map(|c| c.modes.iter().map(|m| m.frequency_hz));
+        self.bearings.iter().map(|b| b.resonator_frequency_hz).chain(casing).collect()
+    }
+
     /// Mean speed of every shaft in Hz, resolving `driven_by` chains.
     pub fn shaft_speeds_hz(&self) -> Result<Vec<f64>, ModelError> {
         let mut speeds = vec![None; self.shafts.len()];
