@@ -182,6 +182,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         reference: "scipy.signal.filtfilt(b, 1)",
         reference_key: Some("filtfilt"),
     });
+    let kurtogram = dsp::kurtogram::KurtogramParams::default();
+    rows.push(Row {
+        name: "kurtogram (13 frame lengths 16–1024, hann, 75 %)".into(),
+        ours_ms: median_ms(r, || Ok(dsp::kurtogram::kurtogram(&x, fs, &kurtogram).map(|_| ())?))?,
+        reference: "scipy.signal.stft + numpy moments, per length",
+        reference_key: Some("kurtogram"),
+    });
     let drs = dsp::drs::DrsParams::default();
     rows.push(Row { name: "DRS (defaults)".into(), ours_ms: median_ms(r, || Ok(dsp::drs::drs(&x, fs, &drs).map(|_| ())?))?, reference: "-", reference_key: None });
     let stsa = dsp::stsa::StsaParams { fault_frequency_hz: 107.0, ..Default::default() };
@@ -334,7 +341,8 @@ fn run_scipy(python: &str, x: &[f64], fs: f64, taps: &[f64], bands: &[(f64, f64)
         std::fs::write(dir.join("x.f64"), to_bytes(x))?;
         std::fs::write(dir.join("taps.f64"), to_bytes(taps))?;
         let mat = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("sample_data/105_de_inner_007_0hp_12k.mat");
-        let spec = serde_json::json!({ "fs": fs, "bands": bands, "weights": weights, "numtaps": taps.len(), "repeat": repeat, "mat": mat });
+        let kurtogram_lengths = dsp::kurtogram::kurtogram_frame_lengths(16, 1024);
+        let spec = serde_json::json!({ "fs": fs, "bands": bands, "weights": weights, "numtaps": taps.len(), "repeat": repeat, "mat": mat, "kurtogram_lengths": kurtogram_lengths });
         std::fs::write(dir.join("spec.json"), spec.to_string())?;
         let out = Command::new(python).arg(&script).arg(&dir).output().with_context(|| format!("running {python}"))?;
         if !out.status.success() {

@@ -367,3 +367,27 @@ dir = "out"
     std::fs::write(&j3, text).unwrap();
     assert_clean_failure(&run(&["--batch", j3.to_str().unwrap()]), &["model_loop.refit", "load_zone", "does not have it on"]);
 }
+
+/// `kurtogram` ranks a record's most impulsive bands (CWRU 209: 4.9–5.6 kHz, above the presets'
+/// resonance); `compare --band-from-kurtogram` demodulates in the most impulsive band that holds
+/// a resonance of the model (2.25–3.75 kHz, 2.6 kHz), and without a band says that the default
+/// 900–1800 Hz holds none; `--band-hz` and `--band-from-kurtogram` together are refused.
+#[test]
+fn the_kurtogram_names_the_band_and_compare_demodulates_in_it() {
+    let measured = cwru("209_de_inner_021_0hp_12k.mat");
+    let m = measured.to_str().unwrap();
+    let k = run(&["kurtogram", m, "--top", "3"]);
+    assert_eq!(k.code, 0, "{}", k.stderr);
+    let first = k.stdout.lines().find(|l| l.trim_start().starts_with("1 ")).unwrap_or_default();
+    assert!(first.contains("4875–5625"), "{}", k.stdout);
+    assert_eq!(k.stdout.lines().filter(|l| l.trim_start().chars().next().is_some_and(|c| c.is_ascii_digit())).count(), 3, "{}", k.stdout);
+    let c = run(&["compare", m, "--preset", "cwru_6205_inner_021", "--with", "noise", "--band-from-kurtogram"]);
+    assert_eq!(c.code, 0, "{}", c.stderr);
+    assert!(c.stderr.contains("demodulation band 2250–3750 Hz from the measurement's kurtogram") && c.stderr.contains("(2600 Hz)"), "{}", c.stderr);
+    let plain = run(&["compare", m, "--preset", "cwru_6205_inner_021", "--with", "noise"]);
+    assert!(plain.stderr.contains("900–1800 Hz holds none of the model's resonances (2600 Hz)"), "{}", plain.stderr);
+    let both = run(&["compare", m, "--preset", "cwru_6205_inner_021", "--band-hz", "1800,3000", "--band-from-kurtogram"]);
+    assert_ne!(both.code, 0);
+    assert!(both.stderr.contains("--band-from-kurtogram") && both.stderr.contains("--band-hz"), "{}", both.stderr);
+    assert_clean_failure(&run(&["kurtogram", m, "--min-band-width-hz", "9000"]), &["min_band_width_hz"]);
+}

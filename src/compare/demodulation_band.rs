@@ -74,3 +74,59 @@ pub fn band_advice(measured: &Signal, opts: &CompareOptions, resonances_hz: &[f6
         if resonances_hz.is_empty() { "" } else { " holding one" }
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    use std::f64::consts::PI;
+
+    /// 10 s at 12 kHz: noise, impacts at 107.3 Hz ringing 2.6 kHz, and stronger, sparser
+    /// impacts ringing 5 kHz (a band the model below has no resonance in).
+    fn two_ringing_bands() -> Signal {
+        let fs = 12000.0;
+        let n = 120_000;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(71);
+        let mut x: Vec<f64> = (0..n).map(|_| 0.3 * Distribution::<f64>::sample(&StandardNormal, &mut rng)).collect();
+        let mut ring = |fr: f64, every_s: f64, amp: f64| {
+            let zeta = 0.05;
+            let wd = 2.0 * PI * fr * (1.0f64 - zeta * zeta).sqrt();
+            let mut t0 = 0.002;
+            while t0 < n as f64 / fs {
+                let i0 = (t0 * fs).ceil() as usize;
+                for (i, v) in x.iter_mut().enumerate().skip(i0).take(300) {
+                    let tau = i as f64 / fs - t0;
+                    *v += amp * (-zeta * 2.0 * PI * fr * tau).exp() * (wd * tau).sin();
+                }
+                t0 += every_s;
+            }
+        };
+        ring(2600.0, 1.0 / 107.3, 1.0);
+        ring(5000.0, 1.0 / 9.7, 6.0);
+        Signal::new(x, fs, "two ringing bands", "g")
+    }
+
+    #[test]
+    fn the_band_holds_a_resonance_of_the_model_when_given_one() {
+        let s = two_ringing_bands();
+        let opts = CompareOptions::default();
+        let (_, free) = demodulation_band(&s, &opts, &[]).unwrap();
+        assert!(free.band_hz[0] < 5000.0 && 5000.0 < free.band_hz[1], "{free:?}");
+        let (_, held) = demodulation_band(&s, &opts, &[2600.0]).unwrap();
+        assert!(held.band_hz[0] <= 2600.0 && 2600.0 <= held.band_hz[1] && held.band_hz[1] - held.band_hz[0] >= 400.0, "{held:?}");
+        assert!(held.sk < free.sk);
+        // A resonance no allowed band can hold: refused, naming it.
+        let e = demodulation_band(&s, &opts, &[100.0]).unwrap_err().to_string();
+        assert!(e.contains("band_from_kurtogram") && e.contains("100 Hz"), "{e}");
+        // The note: the default 900–1800 Hz band holds no resonance of the model; the chosen one is fine.
+        let note = band_advice(&s, &opts, &[2600.0]).expect("a note on 900–1800 Hz");
+        assert!(note.contains("900–1800 Hz holds none of the model's resonances (2600 Hz)"), "{note}");
+        let good = CompareOptions { envelope_band_hz: held.band_hz, ..opts.clone() };
+        assert_eq!(band_advice(&s, &good, &[2600.0]), None);
+        // Without a model, a band far from the impulsive one is named as such.
+        let low = CompareOptions { envelope_band_hz: [500.0, 1500.0], ..opts };
+        let note = band_advice(&s, &low, &[]).expect("a note on 500–1500 Hz");
+        assert!(note.contains("has a spectral kurtosis of at most"), "{note}");
+    }
+}
