@@ -351,10 +351,22 @@ dir = "out"
     assert!(csv.lines().nth(1).is_some_and(|l| l.contains("load_zone,\"radial_load_n = ")), "{csv}");
     let final_machine = std::fs::read_to_string(l["final_machine"].as_str().unwrap()).unwrap();
     assert!(final_machine.contains("[effects.load_zone]"), "{final_machine}");
+    // The final machine names what the loop fitted, for a loop going on from it.
+    assert!(final_machine.contains("fitted_effects = [\"load_zone\"]"), "{final_machine}");
+    assert_eq!(l["demodulation_band_hz"], serde_json::json!([1800.0, 3000.0]));
     assert!(r.stderr.contains("model loop round 1"), "{}", r.stderr);
+    // Each input's band from its kurtogram: one holding the machine's 2.6 kHz resonator.
+    let text = std::fs::read_to_string(&job).unwrap().replacen("band_hz = [1800.0, 3000.0]", "band_from_kurtogram = true", 1).replacen("rounds = 2", "rounds = 1", 1);
+    let jk = d.path().join("kurtogram.toml");
+    std::fs::write(&jk, text).unwrap();
+    let rk = run(&["--batch", jk.to_str().unwrap(), "--out", d.path().join("out_k").to_str().unwrap()]);
+    assert_eq!(rk.code, 0, "{}", rk.stderr);
+    let sk: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path().join("out_k/summary.json")).unwrap()).unwrap();
+    let band: Vec<f64> = sk["inputs"][0]["model_loop"]["demodulation_band_hz"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert!(band[0] <= 2600.0 && 2600.0 <= band[1] && band[1] - band[0] >= 400.0, "{band:?}");
 
     // Bad loop settings fail before any work, naming the key.
-    for (bad, needle) in [("[model_loop]\npreset = \"cwru_6205_inner\"", "[model_loop]\npreset = \"no_such_rig\""), ("candidates = [\"load_zone\", \"slip\"]", "candidates = [\"warp_drive\"]"), ("rounds = 2", "rounds = 0"), ("rounds = 2", "rounds = 2\npath_correction_bands = 99")] {
+    for (bad, needle) in [("[model_loop]\npreset = \"cwru_6205_inner\"", "[model_loop]\npreset = \"no_such_rig\""), ("candidates = [\"load_zone\", \"slip\"]", "candidates = [\"warp_drive\"]"), ("rounds = 2", "rounds = 0"), ("rounds = 2", "rounds = 2\npath_correction_bands = 99"), ("rounds = 2", "rounds = 2\nband_from_kurtogram = true")] {
         let text = std::fs::read_to_string(&job).unwrap().replacen(bad, needle, 1);
         let j2 = d.path().join("bad.toml");
         std::fs::write(&j2, text).unwrap();

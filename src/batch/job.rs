@@ -177,6 +177,10 @@ pub struct LoopSpec {
     /// Demodulation band of the envelope comparison, Hz. Default: the chain's first bandpass
     /// stage, else 900–1800 Hz.
     pub band_hz: Option<[f64; 2]>,
+    /// Demodulate each input in its most impulsive band that holds a resonance of the starting
+    /// machine, from its kurtogram (`compare::demodulation_band`; the CLI's
+    /// `--band-from-kurtogram`), instead of `band_hz` or the chain's. Default false.
+    pub band_from_kurtogram: bool,
     /// Effects the search may try. Default: every applicable effect the model lacks.
     pub candidates: Vec<String>,
     /// Effects on in the starting machine whose parameters the calibration re-fits, as the
@@ -283,6 +287,7 @@ impl Default for LoopSpec {
             without: Vec::new(),
             rounds: 3,
             band_hz: None,
+            band_from_kurtogram: false,
             candidates: Vec::new(),
             refit: Vec::new(),
             fit_duration_s: o.fit_duration_s,
@@ -336,6 +341,9 @@ impl LoopSpec {
             chain::Op::Bandpass(b) => Some(b.pass_band_hz),
             _ => None,
         });
+        if self.band_from_kurtogram && self.band_hz.is_some() {
+            return Err("`model_loop`: give `band_hz` or `band_from_kurtogram = true`, not both".into());
+        }
         if let Some([lo, hi]) = self.band_hz.or(chain_band) {
             if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo < hi) {
                 return Err(format!("`model_loop.band_hz` = [{lo}, {hi}]: must be two frequencies in Hz, 0 < low < high"));

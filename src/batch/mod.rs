@@ -82,7 +82,7 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
             let (m, opts) = (spec.machine(&job.base()).map_err(bad)?, spec.options(&chain).map_err(bad)?);
             crate::compare::calibrate::check_refit_effects(&m, &opts.refit_effects).map_err(|e| bad(format!("`model_loop.refit`: {e}")))?;
             crate::compare::calibrate::check_refit_effects(&m, &m.fitted_effects).map_err(|e| bad(format!("the machine's `fitted_effects`: {e}")))?;
-            Some((spec.rounds, m, opts))
+            Some((spec.rounds, m, opts, spec.band_from_kurtogram))
         }
         None => None,
     };
@@ -126,7 +126,9 @@ pub fn run_job(job: &Job, progress: &dyn Progress) -> Result<JobSummary, BatchEr
 }
 
 /// A resolved `[model_loop]`: rounds, starting machine, options.
-type ModelLoop = (usize, crate::model::Machine, crate::compare::LoopOptions);
+/// A resolved `[model_loop]`: rounds, starting machine, options, and whether each input's
+/// demodulation band comes from its kurtogram.
+type ModelLoop = (usize, crate::model::Machine, crate::compare::LoopOptions, bool);
 
 fn run_one(job: &Job, chain: &crate::chain::Chain, model_loop: Option<&ModelLoop>, input: &InputSource, dir: &Path, progress: &dyn Progress) -> Result<InputSummary, BatchError> {
     let signal = match input {
@@ -155,14 +157,19 @@ fn run_one(job: &Job, chain: &crate::chain::Chain, model_loop: Option<&ModelLoop
     let result = chain.run(&signal, &ctx, |_, _, _| {}).map_err(|source| BatchError::Chain { input: input.display_name(job), source })?;
     std::fs::create_dir_all(dir).map_err(|e| BatchError::Write { path: dir.display().to_string(), message: e.to_string() })?;
     let mut summary = output::write_input(job, &signal, &ctx, &result, dir)?;
-    if let Some((rounds, m, opts)) = model_loop {
+    if let Some((rounds, m, opts, band_from_kurtogram)) = model_loop {
         let name = input.display_name(job);
-        let (final_m, history, last) = crate::compare::run_loop(m, &signal, *rounds, opts, &|done, expected| {
+        let mut opts = opts.clone();
+        if *band_from_kurtogram {
+            let (_, best) = crate::compare::demodulation_band::demodulation_band(&signal, &opts.compare, &m.structural_resonances_hz()).map_err(|e| BatchError::Loop { input: name.clone(), message: format!("`model_loop.band_from_kurtogram`: {e}") })?;
+            opts.compare.envelope_band_hz = best.band_hz;
+        }
+        let (final_m, history, last) = crate::compare::run_loop(m, &signal, *rounds, &opts, &|done, expected| {
             progress.model_evaluations(&name, done, expected);
             true
         })
         .map_err(|e| BatchError::Loop { input: name.clone(), message: e.to_string() })?;
-        summary.model_loop = Some(output::write_loop(dir, &history, &last, &final_m)?);
+        summary.model_loop = Some(output::write_loop(dir, &history, &last, &final_m, opts.compare.envelope_band_hz)?);
     }
     output::write_json(&dir.join("summary.json"), &summary)?;
     Ok(summary)
