@@ -951,3 +951,35 @@ fn model_loop_offers_to_switch_on_noise_when_the_floor_is_zero() {
     h.run_steps(3);
     assert!(h.query_by_label("Switch on noise").is_none());
 }
+
+/// "Band from kurtogram" in the compare view sets the chain's bandpass stage to the measured
+/// record's most impulsive band that holds a resonance of the model (CWRU 209 with the
+/// 0.021" preset: 2250–3750 Hz, holding the 2.6 kHz resonator); a chain without a bandpass
+/// stage is refused with the reason and left as it was.
+#[test]
+fn compare_view_sets_the_band_from_the_kurtogram() {
+    let mut h = harness(StartOptions { tab: Some("compare".into()), files: vec![sample("209_de_inner_021_0hp_12k.mat")], ..Default::default() });
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    h.state_mut().execute(Command::LoadMachinePreset("cwru_6205_inner_021".into()));
+    h.state_mut().execute(Command::ChainPreset("envelope".into()));
+    h.run_steps(3);
+    h.get_by_label("Band from kurtogram").click();
+    h.run_steps(2);
+    idle(&mut h, "the kurtogram", 60);
+    let band = h.state().session.chain.stages.iter().find_map(|s| match &s.op {
+        twinscope::chain::Op::Bandpass(b) => Some(b.pass_band_hz),
+        _ => None,
+    });
+    assert_eq!(band, Some([2250.0, 3750.0]), "messages: {:?}", h.state().session.messages.iter().map(|m| m.text.clone()).collect::<Vec<_>>());
+    let last = h.state().session.messages.last().map(|m| m.text.clone()).unwrap_or_default();
+    assert!(last.contains("2250–3750 Hz from the kurtogram") && last.contains("bandpass stage"), "{last}");
+    h.state_mut().execute(Command::ChainPreset("welch".into()));
+    let before = h.state().session.chain.clone();
+    h.state_mut().execute(Command::BandFromKurtogram(0));
+    h.run_steps(2);
+    idle(&mut h, "the kurtogram", 60);
+    let last = h.state().session.messages.last().map(|m| m.text.clone()).unwrap_or_default();
+    assert!(last.contains("no bandpass stage"), "{last}");
+    assert_eq!(h.state().session.chain, before);
+}

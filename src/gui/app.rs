@@ -194,6 +194,20 @@ impl Workbench {
             }
             Command::SetMetadata { index, fs_hz, shaft_speed_hz, bearing } => self.set_metadata(index, fs_hz, shaft_speed_hz, bearing),
             Command::SetChain(c) => self.session.chain = c,
+            Command::BandFromKurtogram(i) => {
+                let Some(e) = self.session.signals.get(i).cloned() else {
+                    return self.session.tell(Level::Error, "choose a measured signal for its kurtogram");
+                };
+                let opts = jobs::compare_options_for(&self.session.chain);
+                let resonances_hz = self.session.model.machine.structural_resonances_hz();
+                self.worker.spawn(format!("kurtogram of {}", e.signal.name), move |job| {
+                    job.set_step("spectral kurtosis at 13 frame lengths");
+                    let (_, best) = crate::compare::demodulation_band::demodulation_band(&e.signal, &opts, &resonances_hz).map_err(|err| err.to_string())?;
+                    job.check()?;
+                    job.send(JobOutput::DemodulationBand(e.signal.name.clone(), best));
+                    Ok(())
+                });
+            }
             Command::ChainPreset(name) => match crate::chain::preset(&name) {
                 Ok(c) => {
                     self.session.replace_chain(c);
@@ -623,6 +637,18 @@ impl Workbench {
                 }
             }
             Event::Output(JobOutput::Info(s)) => self.session.tell(Level::Info, s),
+            Event::Output(JobOutput::DemodulationBand(name, b)) => {
+                let mut chain = self.session.chain.clone();
+                let Some((stage, spec)) = chain.stages.iter_mut().find_map(|s| match &mut s.op {
+                    crate::chain::Op::Bandpass(spec) => Some((s.name.clone(), spec)),
+                    _ => None,
+                }) else {
+                    return self.session.tell(Level::Error, format!("the kurtogram of {name} chose {:.0}–{:.0} Hz, but the chain has no bandpass stage to set: add one (or load the `envelope` chain)", b.band_hz[0], b.band_hz[1]));
+                };
+                spec.pass_band_hz = b.band_hz;
+                self.session.replace_chain(chain);
+                self.session.tell(Level::Info, format!("demodulation band {:.0}–{:.0} Hz from the kurtogram of {name} (spectral kurtosis {:.2}, frames of {} samples): the chain's bandpass stage `{stage}` now passes it; compare or run the chain again", b.band_hz[0], b.band_hz[1], b.sk, b.nperseg));
+            }
             Event::Finished(Ok(_)) => {}
             Event::Finished(Err((label, e))) => {
                 let level = if e == "cancelled" { Level::Info } else { Level::Error };

@@ -401,6 +401,8 @@ pub enum JobOutput {
     Scf(Box<ScfResult>),
     /// A session file read back (applied by the app).
     SessionFile(Box<super::session_file::SessionFile>, PathBuf),
+    /// The demodulation band a measured signal's kurtogram chose (the signal's name, the band).
+    DemodulationBand(String, crate::dsp::kurtogram::KurtogramBand),
 
     /// Something worth telling the user that is not an error.
     Info(String),

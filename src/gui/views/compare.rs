@@ -36,12 +36,19 @@ impl View for CompareView {
             let n = i.and_then(|i| session.signals.get(i)).map(|e| e.signal.name.clone()).unwrap_or_else(|| "none".into());
             if n.chars().count() > 28 { format!("{}…", n.chars().take(27).collect::<String>()) } else { n }
         };
-        ui.horizontal(|ui| {
+        // Wrapped: with long signal names the row is wider than the central panel, and a
+        // button past its edge could not be clicked.
+        ui.horizontal_wrapped(|ui| {
             egui::ComboBox::from_label("measured").selected_text(name(self.measured)).show_ui(ui, |ui| {
                 for &i in &measured {
                     ui.selectable_value(&mut self.measured, Some(i), name(Some(i)));
                 }
             });
+            if let Some(m) = self.measured {
+                if ui.button("Band from kurtogram").on_hover_text("set the chain's bandpass stage, the comparison's demodulation band, to the measured signal's most impulsive band (its kurtogram) that holds a resonance of the model: at least twice the envelope spectrum's 200 Hz wide (`--band-from-kurtogram`)").clicked() {
+                    cmd = Some(Command::BandFromKurtogram(m));
+                }
+            }
             egui::ComboBox::from_label("simulated").selected_text(name(self.simulated)).show_ui(ui, |ui| {
                 for &i in &simulated {
                     ui.selectable_value(&mut self.simulated, Some(i), name(Some(i)));

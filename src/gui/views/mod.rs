@@ -37,6 +37,9 @@ pub enum Command {
     SetMetadata { index: usize, fs_hz: f64, shaft_speed_hz: Option<f64>, bearing: Option<String> },
     /// Replace the chain by an edited one.
     SetChain(Chain),
+    /// Set the chain's bandpass stage to the most impulsive band of measured signal `index`
+    /// that holds a resonance of the model (its kurtogram; `compare::demodulation_band`).
+    BandFromKurtogram(usize),
     /// Load a bundled chain preset.
     ChainPreset(String),
     /// Open a chain TOML in a dialog / from a path.
