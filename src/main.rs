@@ -530,8 +530,9 @@ impl SearchArgs {
 }
 
 fn main() {
-    let cli = Cli::parse();
-    if let Err(e) = run(cli) {
+    let matches = <Cli as clap::CommandFactory>::command().get_matches();
+    let cli = <Cli as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    if let Err(e) = run(cli, &matches) {
         // One line, naming what was wrong; no backtrace, no panic.
         let msg = format!("{e:#}").replace('\n', " ");
         eprintln!("twinscope: error: {msg}");
@@ -539,7 +540,35 @@ fn main() {
     }
 }
 
-fn run(cli: Cli) -> Result<()> {
+/// The search options (`SearchArgs`) given on the command line to `diagnose`, as the words to
+/// repeat in the command that goes on from a saved machine: each flag the user set, with its
+/// values as typed, in the order `SearchArgs` declares them. Empty for any other command.
+fn search_words(matches: &clap::ArgMatches) -> Vec<String> {
+    let Some(("diagnose", sub)) = matches.subcommand() else { return Vec::new() };
+    let cli = <Cli as clap::CommandFactory>::command();
+    let Some(diagnose) = cli.find_subcommand("diagnose") else { return Vec::new() };
+    let Some(group) = diagnose.get_groups().find(|g| g.get_id() == "SearchArgs") else { return Vec::new() };
+    let mut words = Vec::new();
+    for id in group.get_args() {
+        let Some(arg) = diagnose.get_arguments().find(|a| a.get_id() == id) else { continue };
+        let (Some(long), Some(clap::parser::ValueSource::CommandLine)) = (arg.get_long(), sub.value_source(id.as_str())) else { continue };
+        if matches!(arg.get_action(), clap::ArgAction::SetTrue | clap::ArgAction::SetFalse) {
+            words.push(format!("--{long}"));
+            continue;
+        }
+        for occurrence in sub.get_raw_occurrences(id.as_str()).into_iter().flatten() {
+            let values: Vec<String> = occurrence.map(|v| v.to_string_lossy().into_owned()).collect();
+            words.push(format!("--{long}"));
+            match arg.get_value_delimiter() {
+                Some(d) => words.push(values.join(&d.to_string())),
+                None => words.extend(values),
+            }
+        }
+    }
+    words
+}
+
+fn run(cli: Cli, matches: &clap::ArgMatches) -> Result<()> {
     if let Some(job) = &cli.batch {
         return run_batch(job, cli.out.as_deref(), cli.quiet);
     }
@@ -563,7 +592,7 @@ fn run(cli: Cli) -> Result<()> {
         Some(Command::Kurtogram { file, channel, min_band_width_hz, top, json }) => kurtogram_cmd(&file, channel, min_band_width_hz, top, json.as_deref()),
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, band_from_kurtogram, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, bearing, fault_hz, path_correction as usize, json.as_deref(), cli.quiet),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, band_from_kurtogram, with, refit, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, &with, &refit, rounds, &step, search.options(), json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, band_from_kurtogram, with, refit, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, &with, &refit, rounds, &step, (search.options(), search_words(matches)), json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, step, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
             confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, &step, json.as_deref(), search.options())
@@ -864,7 +893,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
 }
 
 #[allow(clippy::too_many_arguments)]
-fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band: Band, with: &[String], refit: &[String], rounds: usize, step: &StepArgs, mut opts: LoopOptions, json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
+fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>, channel: Option<String>, band: Band, with: &[String], refit: &[String], rounds: usize, step: &StepArgs, (mut opts, search_words): (LoopOptions, Vec<String>), json: Option<&Path>, save_machine: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare;
     use twinscope::model::{self, Machine};
     // How the measurement is read and compared, for the command that goes on from a saved machine.
@@ -887,6 +916,8 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     if band.hz.is_some() || band.from_kurtogram {
         go_on_args.extend(["--band-hz".to_string(), band_set.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",")]);
     }
+    // The search as this run was told, so that the loop going on searches the same way.
+    go_on_args.extend(search_words);
     opts.refit_effects = refit.iter().map(|n| twinscope::model::EffectKind::parse_named(n).map_err(anyhow::Error::msg)).collect::<Result<_>>()?;
     compare::calibrate::check_refit_effects(&m, &opts.refit_effects).context("--refit")?;
     if let (Some(p), false) = (machine, m.fitted_effects.is_empty()) {
@@ -1186,4 +1217,34 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
     let clean = multi.iter().filter(|r| r.false_claims.is_empty()).count();
     println!("\nevery hidden effect found: {all}/{}; cases without a false claim: {clean}/{}", multi.len(), multi.len());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn words(args: &[&str]) -> Vec<String> {
+        let m = <Cli as clap::CommandFactory>::command().try_get_matches_from(args).unwrap();
+        search_words(&m)
+    }
+
+    /// The search options a `diagnose` run was given, and only those, come back as typed: flags,
+    /// values, a value with its delimiter; defaults, the read and compare options and other
+    /// commands give none.
+    #[test]
+    fn the_search_options_given_are_repeated_as_typed() {
+        let w = words(&["twinscope", "diagnose", "m.wav", "--preset", "mfs_healthy", "--rounds", "2", "--with", "noise", "--fit-duration-s", "3", "--no-coupled-forces", "--domain-weights", "1,0,0", "--band-hz", "1800,3000", "--floor-margin=0.2"]);
+        assert_eq!(w, ["--no-coupled-forces", "--floor-margin", "0.2", "--fit-duration-s", "3", "--domain-weights", "1,0,0"]);
+        // Parsed back, they set the same options.
+        let again = <Cli as clap::CommandFactory>::command().try_get_matches_from(["twinscope", "diagnose", "m.wav"].iter().copied().chain(w.iter().map(|s| s.as_str()))).unwrap();
+        let (Some(Command::Diagnose { search: a, .. }), Some(Command::Diagnose { search: b, .. })) = (
+            <Cli as clap::FromArgMatches>::from_arg_matches(&again).unwrap().command,
+            Cli::try_parse_from(["twinscope", "diagnose", "m.wav", "--fit-duration-s", "3", "--no-coupled-forces", "--domain-weights", "1,0,0", "--floor-margin", "0.2"]).unwrap().command,
+        ) else {
+            panic!("not diagnose")
+        };
+        assert_eq!(a.options(), b.options());
+        assert!(words(&["twinscope", "diagnose", "m.wav", "--preset", "mfs_healthy"]).is_empty());
+        assert!(words(&["twinscope", "confusion", "--fit-duration-s", "3"]).is_empty());
+    }
 }
