@@ -343,7 +343,9 @@ pub struct LoopOptions {
     /// model has them on). [`super::diagnose::run_loop`] adds every effect it applies: an
     /// effect fitted while another one was still missing has bent its parameters to imitate
     /// that one too (a load zone fitted beside a hidden unbalance took the 500 N bound, where
-    /// the truth was 187 N), and the next round must be free to un-bend them. Default: none.
+    /// the truth was 187 N), and the next round must be free to un-bend them; a machine's own
+    /// [`Machine::fitted_effects`] are re-fitted too ([`calibration_parameters_for`]). Default:
+    /// none.
     pub refit_effects: Vec<crate::model::EffectKind>,
     /// When the calibration pins a parameter at the edge of its range ([`Fit::at_bound`]),
     /// every stage-1 trial is also started from the round's uncalibrated values: it scans its
@@ -1381,8 +1383,8 @@ pub fn calibration_parameters_for(m: &Machine, opts: &LoopOptions) -> Vec<Param>
 
 /// Checks effects named for the calibration to re-fit ([`LoopOptions::refit_effects`]; the
 /// CLI's `diagnose --refit`, a batch job's `model_loop.refit`): each must be on in `m` and have a
-/// parameter to fit. A loop started from a machine a former loop saved re-fits what that loop
-/// applied only when told so, as `run_loop` re-fits what it applies itself.
+/// parameter to fit. A machine a former loop saved names what that loop fitted
+/// ([`Machine::fitted_effects`], checked with this too), and those are re-fitted untold.
 pub fn check_refit_effects(m: &Machine, effects: &[EffectKind]) -> Result<(), CompareError> {
     match effects.iter().find_map(|k| refit_refusal(m, *k)) {
         Some(reason) => Err(CompareError::Parameter { name: "refit", reason }),
