@@ -2,8 +2,6 @@
 //! values (Gaussian noise 0, a tone −1, real DC and Nyquist bins 1), the kurtogram's band on
 //! impacts ringing a resonance, and bad input.
 
-use rand::SeedableRng;
-use rand_distr::{Distribution, StandardNormal};
 use std::f64::consts::PI;
 use twinscope::dsp::kurtogram::{kurtogram, kurtogram_frame_lengths, spectral_kurtosis, KurtogramParams, SpectralKurtosisParams};
 use twinscope::dsp::{DspError, Window};
@@ -17,8 +15,7 @@ fn read_column(name: &str) -> Vec<f64> {
 }
 
 fn noise(n: usize, seed: u64) -> Vec<f64> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    (0..n).map(|_| StandardNormal.sample(&mut rng)).collect()
+    twinscope::signal::synth::white_noise(n, 1.0, seed)
 }
 
 /// Every case of make_kurtogram.py: each bin within 1e-9 of scipy's (the values are of order 1).
@@ -71,22 +68,11 @@ fn gaussian_noise_reads_zero_and_a_tone_minus_one() {
 /// reads about −1, and a search band that leaves the resonance out finds a weaker band.
 #[test]
 fn the_kurtogram_finds_the_band_of_the_ringing_impacts() {
-    let n = 120_000;
-    let mut x: Vec<f64> = noise(n, 11).iter().map(|v| 0.3 * v).collect();
-    let (fr, zeta) = (3000.0, 0.05);
-    let wd = 2.0 * PI * fr * (1.0f64 - zeta * zeta).sqrt();
-    let mut t0 = 0.003;
-    while t0 < n as f64 / FS {
-        let i0 = (t0 * FS).ceil() as usize;
-        for (i, v) in x.iter_mut().enumerate().skip(i0).take(400) {
-            let tau = i as f64 / FS - t0;
-            *v += 2.0 * (-zeta * 2.0 * PI * fr * tau).exp() * (wd * tau).sin();
-        }
-        t0 += 1.0 / 107.3;
-    }
-    for (i, v) in x.iter_mut().enumerate() {
-        *v += 3.0 * (2.0 * PI * 440.0 * i as f64 / FS).cos();
-    }
+    use twinscope::signal::synth::{impact_train, tone, white_noise, ImpactTrain};
+    let (n, fr) = (120_000, 3000.0);
+    let impacts = impact_train(n, FS, &ImpactTrain { fault_frequency_hz: 107.3, resonance_hz: fr, damping_ratio: 0.05, jitter_fraction: 0.0, modulation_depth: 0.0, modulation_hz: 0.0, amplitude: 2.0 }, 11);
+    let (noise, hum) = (white_noise(n, 0.3, 12), tone(n, FS, 440.0, 3.0, 0.0));
+    let x: Vec<f64> = impacts.iter().zip(&noise).zip(&hum).map(|((a, w), h)| a + w + h).collect();
     let p = KurtogramParams { min_band_width_hz: 400.0, ..Default::default() };
     let k = kurtogram(&x, FS, &p).unwrap();
     assert_eq!(k.levels.iter().map(|l| l.nperseg).collect::<Vec<_>>(), kurtogram_frame_lengths(16, 1024));

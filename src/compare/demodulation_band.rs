@@ -78,32 +78,17 @@ pub fn band_advice(measured: &Signal, opts: &CompareOptions, resonances_hz: &[f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::SeedableRng;
-    use rand_distr::{Distribution, StandardNormal};
-    use std::f64::consts::PI;
+    use crate::signal::synth::{impact_train, white_noise, ImpactTrain};
 
     /// 10 s at 12 kHz: noise, impacts at 107.3 Hz ringing 2.6 kHz, and stronger, sparser
     /// impacts ringing 5 kHz (a band the model below has no resonance in).
     fn two_ringing_bands() -> Signal {
-        let fs = 12000.0;
-        let n = 120_000;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(71);
-        let mut x: Vec<f64> = (0..n).map(|_| 0.3 * Distribution::<f64>::sample(&StandardNormal, &mut rng)).collect();
-        let mut ring = |fr: f64, every_s: f64, amp: f64| {
-            let zeta = 0.05;
-            let wd = 2.0 * PI * fr * (1.0f64 - zeta * zeta).sqrt();
-            let mut t0 = 0.002;
-            while t0 < n as f64 / fs {
-                let i0 = (t0 * fs).ceil() as usize;
-                for (i, v) in x.iter_mut().enumerate().skip(i0).take(300) {
-                    let tau = i as f64 / fs - t0;
-                    *v += amp * (-zeta * 2.0 * PI * fr * tau).exp() * (wd * tau).sin();
-                }
-                t0 += every_s;
-            }
+        let (fs, n) = (12000.0, 120_000);
+        let ring = |fault_frequency_hz: f64, resonance_hz: f64, amplitude: f64, seed: u64| {
+            impact_train(n, fs, &ImpactTrain { fault_frequency_hz, resonance_hz, damping_ratio: 0.05, jitter_fraction: 0.0, modulation_depth: 0.0, modulation_hz: 0.0, amplitude }, seed)
         };
-        ring(2600.0, 1.0 / 107.3, 1.0);
-        ring(5000.0, 1.0 / 9.7, 6.0);
+        let (a, b, noise) = (ring(107.3, 2600.0, 1.0, 1), ring(9.7, 5000.0, 6.0, 2), white_noise(n, 0.3, 71));
+        let x = a.iter().zip(&b).zip(&noise).map(|((a, b), w)| a + b + w).collect();
         Signal::new(x, fs, "two ringing bands", "g")
     }
 
