@@ -291,6 +291,9 @@ fn model_loop_finds_ranks_and_adds_an_effect() {
     assert!(h.query_by_label(&label).is_some(), "ranked label {label}");
     assert!(h.query_by_label(&format!("{:.1} -> {:.1} %", first.envelope_nrmse_before, first.envelope_nrmse_after)).is_some(), "envelope NRMSE before → after shown");
     assert!(!labels_containing(&h, "Verdict: ").is_empty());
+    // The band the search compared in, from the demo chain's bandpass stage.
+    let [lo, hi] = r.options.compare.envelope_band_hz;
+    assert!(!labels_containing(&h, &format!("demodulation band {lo:.0}–{hi:.0} Hz")).is_empty(), "band shown");
     // The preset has no noise: nothing random, a zero floor, and the view says what that means.
     assert_eq!(r.diagnosis.floor_objective, 0.0);
     assert!(!labels_containing(&h, "Note: the model has nothing random in it").is_empty(), "zero-floor note shown");
@@ -972,6 +975,8 @@ fn compare_view_sets_the_band_from_the_kurtogram() {
         _ => None,
     });
     assert_eq!(band, Some([2250.0, 3750.0]), "messages: {:?}", h.state().session.messages.iter().map(|m| m.text.clone()).collect::<Vec<_>>());
+    // The loop compares in the chain's band, and says so.
+    assert_eq!(twinscope::gui::jobs::compare_options_for(&h.state().session.chain).envelope_band_hz, [2250.0, 3750.0]);
     let last = h.state().session.messages.last().map(|m| m.text.clone()).unwrap_or_default();
     assert!(last.contains("2250–3750 Hz from the kurtogram") && last.contains("bandpass stage"), "{last}");
     h.state_mut().execute(Command::ChainPreset("welch".into()));

@@ -281,12 +281,15 @@ impl ModelLoopView {
         let d = &r.diagnosis;
         ui.strong(format!("Missing-effect ranking against {}", r.measured));
         ui.weak(format!(
-            "{} trials · fit {:.2} s per evaluation · {:.1} s · floor (the model against itself) objective {:.1}",
+            "{} trials · demodulation band {:.0}–{:.0} Hz · fit {:.2} s per evaluation · {:.1} s · floor objective {:.1}",
             d.trials.len(),
+            r.options.compare.envelope_band_hz[0],
+            r.options.compare.envelope_band_hz[1],
             r.options.fit_duration_s,
             r.seconds,
             d.floor_objective
-        ));
+        ))
+        .on_hover_text("the envelopes are compared in the chain's bandpass stage (Compare → Band from kurtogram sets it from the measurement); the floor is the model's objective against realisations of itself");
         if d.floor_objective == 0.0 {
             ui.add(egui::Label::new(RichText::new(format!("Note: {}", drawable(crate::compare::diagnose::ZERO_FLOOR_NOTE))).color(ui.visuals().warn_fg_color)).wrap());
             let machine = &session.model.machine;
