@@ -530,9 +530,10 @@ impl SearchArgs {
 }
 
 fn main() {
-    let matches = <Cli as clap::CommandFactory>::command().get_matches();
+    let mut command = <Cli as clap::CommandFactory>::command();
+    let matches = command.get_matches_mut();
     let cli = <Cli as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
-    if let Err(e) = run(cli, &matches) {
+    if let Err(e) = run(cli, (&command, &matches)) {
         // One line, naming what was wrong; no backtrace, no panic.
         let msg = format!("{e:#}").replace('\n', " ");
         eprintln!("twinscope: error: {msg}");
@@ -543,9 +544,9 @@ fn main() {
 /// The search options (`SearchArgs`) given on the command line to `diagnose`, as the words to
 /// repeat in the command that goes on from a saved machine: each flag the user set, with its
 /// values as typed, in the order `SearchArgs` declares them. Empty for any other command.
-fn search_words(matches: &clap::ArgMatches) -> Vec<String> {
+/// `cli` is the command `matches` were parsed with.
+fn search_words(cli: &clap::Command, matches: &clap::ArgMatches) -> Vec<String> {
     let Some(("diagnose", sub)) = matches.subcommand() else { return Vec::new() };
-    let cli = <Cli as clap::CommandFactory>::command();
     let Some(diagnose) = cli.find_subcommand("diagnose") else { return Vec::new() };
     let Some(group) = diagnose.get_groups().find(|g| g.get_id() == "SearchArgs") else { return Vec::new() };
     let mut words = Vec::new();
@@ -568,7 +569,7 @@ fn search_words(matches: &clap::ArgMatches) -> Vec<String> {
     words
 }
 
-fn run(cli: Cli, matches: &clap::ArgMatches) -> Result<()> {
+fn run(cli: Cli, (command, matches): (&clap::Command, &clap::ArgMatches)) -> Result<()> {
     if let Some(job) = &cli.batch {
         return run_batch(job, cli.out.as_deref(), cli.quiet);
     }
@@ -592,7 +593,7 @@ fn run(cli: Cli, matches: &clap::ArgMatches) -> Result<()> {
         Some(Command::Kurtogram { file, channel, min_band_width_hz, top, json }) => kurtogram_cmd(&file, channel, min_band_width_hz, top, json.as_deref()),
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, band_from_kurtogram, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, bearing, fault_hz, path_correction as usize, json.as_deref(), cli.quiet),
-        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, band_from_kurtogram, with, refit, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, &with, &refit, rounds, &step, (search.options(), search_words(matches)), json.as_deref(), save_machine.as_deref(), cli.quiet),
+        Some(Command::Diagnose { measured, machine, preset, channel, band_hz, band_from_kurtogram, with, refit, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, &with, &refit, rounds, &step, (search.options(), search_words(command, matches)), json.as_deref(), save_machine.as_deref(), cli.quiet),
         Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, step, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
             confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, &step, json.as_deref(), search.options())
@@ -825,7 +826,7 @@ impl Band {
             opts.envelope_band_hz = [b[0], b[1]];
         }
         if self.from_kurtogram {
-            let (_, best) = demodulation_band(meas, opts, resonances_hz).context("--band-from-kurtogram")?;
+            let best = demodulation_band(meas, opts, resonances_hz).context("--band-from-kurtogram")?.band;
             opts.envelope_band_hz = best.band_hz;
             if !quiet {
                 let held = if resonances_hz.is_empty() { String::new() } else { format!(", the most impulsive holding a resonance of the model ({} Hz)", resonances_hz.iter().map(|f| format!("{f:.0}")).collect::<Vec<_>>().join(", ")) };
@@ -1224,8 +1225,9 @@ mod tests {
     use super::*;
 
     fn words(args: &[&str]) -> Vec<String> {
-        let m = <Cli as clap::CommandFactory>::command().try_get_matches_from(args).unwrap();
-        search_words(&m)
+        let mut cli = <Cli as clap::CommandFactory>::command();
+        let m = cli.try_get_matches_from_mut(args).unwrap();
+        search_words(&cli, &m)
     }
 
     /// The search options a `diagnose` run was given, and only those, come back as typed: flags,

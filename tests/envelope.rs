@@ -1,6 +1,7 @@
 //! Analytic signal against scipy.signal.hilbert; envelope and envelope spectra of AM
 //! signals (analytic cases); bad input.
 
+mod common;
 use num_complex::Complex64;
 use std::f64::consts::PI;
 use twinscope::dsp::envelope::*;
@@ -9,8 +10,7 @@ use twinscope::dsp::{DspError, Window};
 const FIX: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/spectral/");
 
 fn read_rows(name: &str) -> Vec<Vec<f64>> {
-    let text = std::fs::read_to_string(format!("{FIX}{name}")).unwrap();
-    text.lines().filter(|l| !l.trim().is_empty()).map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect()).collect()
+    common::read_fixture_rows(&format!("{FIX}{name}"))
 }
 
 /// scipy.signal.hilbert of x[:512] and x[:511]: |error| ≤ 1e-10 elementwise.

@@ -2,6 +2,7 @@
 //! values (Gaussian noise 0, a tone −1, real DC and Nyquist bins 1), the kurtogram's band on
 //! impacts ringing a resonance, and bad input.
 
+mod common;
 use std::f64::consts::PI;
 use twinscope::dsp::kurtogram::{kurtogram, kurtogram_frame_lengths, spectral_kurtosis, KurtogramParams, SpectralKurtosisParams};
 use twinscope::dsp::{DspError, Window};
@@ -10,8 +11,7 @@ const FIX: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/kurtogram
 const FS: f64 = 12000.0;
 
 fn read_column(name: &str) -> Vec<f64> {
-    let text = std::fs::read_to_string(format!("{FIX}{name}")).unwrap();
-    text.lines().filter(|l| !l.trim().is_empty()).map(|l| l.trim().parse::<f64>().unwrap()).collect()
+    common::read_fixture_column(&format!("{FIX}{name}"))
 }
 
 fn noise(n: usize, seed: u64) -> Vec<f64> {

@@ -1,5 +1,6 @@
 //! Amplitude spectrum against a numpy fixture and tones, peak finding, unit conversion, dB.
 
+mod common;
 use std::f64::consts::PI;
 use twinscope::dsp::spectrum::*;
 use twinscope::dsp::welch::{welch_psd, Detrend, Scaling, WelchParams};
@@ -9,8 +10,7 @@ use twinscope::signal::Signal;
 const FIX: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/spectral/");
 
 fn read_column(name: &str) -> Vec<f64> {
-    let text = std::fs::read_to_string(format!("{FIX}{name}")).unwrap();
-    text.lines().filter(|l| !l.trim().is_empty()).map(|l| l.trim().parse::<f64>().unwrap()).collect()
+    common::read_fixture_column(&format!("{FIX}{name}"))
 }
 
 fn tone(a: f64, f: f64, fs: f64, n: usize, phase: f64) -> Vec<f64> {

@@ -1,5 +1,6 @@
 //! Welch PSD against scipy.signal.welch fixtures, Parseval, tone power, and bad input.
 
+mod common;
 use std::f64::consts::PI;
 use twinscope::dsp::welch::{welch_psd, Average, Detrend, Scaling, WelchParams};
 use twinscope::dsp::{DspError, Window};
@@ -8,8 +9,7 @@ const FIX: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/spectral/
 const FS: f64 = 2048.0;
 
 fn read_column(name: &str) -> Vec<f64> {
-    let text = std::fs::read_to_string(format!("{FIX}{name}")).unwrap();
-    text.lines().filter(|l| !l.trim().is_empty()).map(|l| l.trim().parse::<f64>().unwrap()).collect()
+    common::read_fixture_column(&format!("{FIX}{name}"))
 }
 
 /// Every scipy.signal.welch case of make_spectral.py: elementwise relative error ≤ 1e-9

@@ -161,7 +161,7 @@ fn run_one(job: &Job, chain: &crate::chain::Chain, model_loop: Option<&ModelLoop
         let name = input.display_name(job);
         let mut opts = opts.clone();
         if *band_from_kurtogram {
-            let (_, best) = crate::compare::demodulation_band::demodulation_band(&signal, &opts.compare, &m.structural_resonances_hz()).map_err(|e| BatchError::Loop { input: name.clone(), message: format!("`model_loop.band_from_kurtogram`: {e}") })?;
+            let best = crate::compare::demodulation_band::demodulation_band(&signal, &opts.compare, &m.structural_resonances_hz()).map_err(|e| BatchError::Loop { input: name.clone(), message: format!("`model_loop.band_from_kurtogram`: {e}") })?.band;
             opts.compare.envelope_band_hz = best.band_hz;
         }
         let (final_m, history, last) = crate::compare::run_loop(m, &signal, *rounds, &opts, &|done, expected| {

@@ -16,6 +16,18 @@ pub fn kurtogram_params_for(fs_hz: f64, opts: &CompareOptions) -> KurtogramParam
     KurtogramParams { min_band_width_hz: width, search_band_hz: Some([width.min(0.25 * fs_hz), 0.475 * fs_hz]), ..KurtogramParams::default() }
 }
 
+/// A demodulation band chosen from a measurement's kurtogram, with the kurtogram and the limits
+/// it was searched under.
+#[derive(Debug, Clone)]
+pub struct DemodulationBand {
+    /// The band chosen: what `--band-from-kurtogram` sets as `envelope_band_hz`.
+    pub band: KurtogramBand,
+    /// The measurement's kurtogram.
+    pub kurtogram: Kurtogram,
+    /// The limits it was searched under ([`kurtogram_params_for`]).
+    pub params: KurtogramParams,
+}
+
 /// The measurement's kurtogram under [`kurtogram_params_for`] and the band it chooses: what
 /// `--band-from-kurtogram` sets as `envelope_band_hz`. With `resonances_hz` (a model's
 /// [`crate::model::Machine::structural_resonances_hz`]), only bands that hold one of them are
@@ -26,10 +38,10 @@ pub fn kurtogram_params_for(fs_hz: f64, opts: &CompareOptions) -> KurtogramParam
 ///
 /// # Errors
 /// The kurtogram's, and [`CompareError::Parameter`] when no allowed band holds a resonance.
-pub fn demodulation_band(measured: &Signal, opts: &CompareOptions, resonances_hz: &[f64]) -> Result<(Kurtogram, KurtogramBand), CompareError> {
+pub fn demodulation_band(measured: &Signal, opts: &CompareOptions, resonances_hz: &[f64]) -> Result<DemodulationBand, CompareError> {
     let p = kurtogram_params_for(measured.fs_hz, opts);
     let k = kurtogram(&measured.samples, measured.fs_hz, &p).map_err(dsp_err("kurtogram of the measurement"))?;
-    let best = holding_a_resonance(&k, measured.fs_hz, &p, resonances_hz).next().ok_or_else(|| CompareError::Parameter {
+    let band = holding_a_resonance(&k, measured.fs_hz, &p, resonances_hz).next().ok_or_else(|| CompareError::Parameter {
         name: "band_from_kurtogram",
         reason: format!(
             "no band of the kurtogram ({:.0}–{:.0} Hz, at least {:.0} Hz wide) holds a resonance of the model ({} Hz): give the demodulation band",
@@ -39,7 +51,7 @@ pub fn demodulation_band(measured: &Signal, opts: &CompareOptions, resonances_hz
             resonances_hz.iter().map(|f| format!("{f:.0}")).collect::<Vec<_>>().join(", ")
         ),
     })?;
-    Ok((k, best))
+    Ok(DemodulationBand { band, kurtogram: k, params: p })
 }
 
 /// The allowed bands of `k`, most impulsive first, that hold one of `resonances_hz` (all of
@@ -53,8 +65,7 @@ fn holding_a_resonance<'a>(k: &Kurtogram, fs_hz: f64, p: &KurtogramParams, reson
 /// spectral kurtosis is under half that of [`demodulation_band`]'s choice. `None` when the
 /// band is reasonable or the kurtogram cannot be made (too short a record).
 pub fn band_advice(measured: &Signal, opts: &CompareOptions, resonances_hz: &[f64]) -> Option<String> {
-    let (k, best) = demodulation_band(measured, opts, resonances_hz).ok()?;
-    let p = kurtogram_params_for(measured.fs_hz, opts);
+    let DemodulationBand { band: best, kurtogram: k, params: p } = demodulation_band(measured, opts, resonances_hz).ok()?;
     let [lo, hi] = opts.envelope_band_hz;
     let holds = resonances_hz.is_empty() || resonances_hz.iter().any(|f| lo <= *f && *f <= hi);
     let within = k.sk_within([lo, hi], measured.fs_hz, &p);
@@ -96,9 +107,9 @@ mod tests {
     fn the_band_holds_a_resonance_of_the_model_when_given_one() {
         let s = two_ringing_bands();
         let opts = CompareOptions::default();
-        let (_, free) = demodulation_band(&s, &opts, &[]).unwrap();
+        let free = demodulation_band(&s, &opts, &[]).unwrap().band;
         assert!(free.band_hz[0] < 5000.0 && 5000.0 < free.band_hz[1], "{free:?}");
-        let (_, held) = demodulation_band(&s, &opts, &[2600.0]).unwrap();
+        let held = demodulation_band(&s, &opts, &[2600.0]).unwrap().band;
         assert!(held.band_hz[0] <= 2600.0 && 2600.0 <= held.band_hz[1] && held.band_hz[1] - held.band_hz[0] >= 400.0, "{held:?}");
         assert!(held.sk < free.sk);
         // A resonance no allowed band can hold: refused, naming it.

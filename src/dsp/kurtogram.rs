@@ -92,13 +92,16 @@ pub fn spectral_kurtosis(x: &[f64], fs_hz: f64, p: &SpectralKurtosisParams) -> R
     let (s2, s4) = (0..frames)
         .into_par_iter()
         .fold(
-            || (vec![0.0; bins], vec![0.0; bins], fft::r2c(n), vec![0.0; n]),
-            |(mut s2, mut s4, plan, mut buf), k| {
+            || {
+                let plan = fft::r2c(n);
+                let spec = plan.make_output_vec();
+                (vec![0.0; bins], vec![0.0; bins], plan, vec![0.0; n], spec)
+            },
+            |(mut s2, mut s4, plan, mut buf, mut spec), k| {
                 let seg = &x[k * step..k * step + n];
                 for ((b, v), w) in buf.iter_mut().zip(seg).zip(&win) {
                     *b = v * w;
                 }
-                let mut spec = plan.make_output_vec();
                 // The plan's lengths match the buffers by construction.
                 plan.process(&mut buf, &mut spec).expect("FFT lengths match");
                 for ((a2, a4), c) in s2.iter_mut().zip(s4.iter_mut()).zip(&spec) {
@@ -106,10 +109,10 @@ pub fn spectral_kurtosis(x: &[f64], fs_hz: f64, p: &SpectralKurtosisParams) -> R
                     *a2 += m2;
                     *a4 += m2 * m2;
                 }
-                (s2, s4, plan, buf)
+                (s2, s4, plan, buf, spec)
             },
         )
-        .map(|(s2, s4, _, _)| (s2, s4))
+        .map(|(s2, s4, ..)| (s2, s4))
         .reduce(
             || (vec![0.0; bins], vec![0.0; bins]),
             |(mut a2, mut a4), (b2, b4)| {
@@ -188,9 +191,7 @@ pub struct Kurtogram {
 impl Kurtogram {
     /// The allowed bands ([`KurtogramParams`]) of every level, largest spectral kurtosis first.
     pub fn ranked_bands(&self, fs_hz: f64, p: &KurtogramParams) -> Vec<KurtogramBand> {
-        let mut v: Vec<KurtogramBand> = self.levels.iter().flat_map(|l| level_bands(l, fs_hz, p)).collect();
-        v.sort_by(|a, b| b.sk.total_cmp(&a.sk));
-        v
+        ranked_bands(&self.levels, fs_hz, p)
     }
 
     /// The largest spectral kurtosis of any allowed band overlapping `band_hz` (None when no
@@ -198,6 +199,13 @@ impl Kurtogram {
     pub fn sk_within(&self, band_hz: [f64; 2], fs_hz: f64, p: &KurtogramParams) -> Option<f64> {
         self.levels.iter().flat_map(|l| level_bands(l, fs_hz, p)).filter(|b| b.band_hz[0] < band_hz[1] && b.band_hz[1] > band_hz[0]).map(|b| b.sk).reduce(f64::max)
     }
+}
+
+/// The allowed bands of `levels`, largest spectral kurtosis first.
+fn ranked_bands(levels: &[KurtogramLevel], fs_hz: f64, p: &KurtogramParams) -> Vec<KurtogramBand> {
+    let mut v: Vec<KurtogramBand> = levels.iter().flat_map(|l| level_bands(l, fs_hz, p)).collect();
+    v.sort_by(|a, b| b.sk.total_cmp(&a.sk));
+    v
 }
 
 /// The bands of level `l` that `p` allows: bins between DC and Nyquist, at least
@@ -266,16 +274,15 @@ pub fn kurtogram(x: &[f64], fs_hz: f64, p: &KurtogramParams) -> Result<Kurtogram
             spectral_kurtosis(x, fs_hz, &sp).map(|sk| KurtogramLevel { nperseg: n, band_width_hz: 2.0 * fs_hz / n as f64, frames: sp.frames(x.len()), sk })
         })
         .collect::<Result<_, _>>()?;
-    let mut k = Kurtogram { levels, best: KurtogramBand { band_hz: [0.0, 0.0], centre_hz: 0.0, sk: f64::NAN, nperseg: 0 } };
-    k.best = k.ranked_bands(fs_hz, p).into_iter().next().ok_or_else(|| DspError::InvalidParameter {
+    let best = ranked_bands(&levels, fs_hz, p).into_iter().next().ok_or_else(|| DspError::InvalidParameter {
         name: "min_band_width_hz",
         value: p.min_band_width_hz.to_string(),
         reason: format!(
             "no band of the kurtogram (widest {:.1} Hz, from frames of {} samples) is that wide and inside {:?} Hz: lower min_band_width_hz or min_nperseg, or widen search_band_hz",
-            2.0 * fs_hz / k.levels[0].nperseg as f64,
-            k.levels[0].nperseg,
+            2.0 * fs_hz / levels[0].nperseg as f64,
+            levels[0].nperseg,
             p.search_band_hz.unwrap_or([0.0, fs_hz / 2.0])
         ),
     })?;
-    Ok(k)
+    Ok(Kurtogram { levels, best })
 }

@@ -202,7 +202,7 @@ impl Workbench {
                 let resonances_hz = self.session.model.machine.structural_resonances_hz();
                 self.worker.spawn(format!("kurtogram of {}", e.signal.name), move |job| {
                     job.set_step("spectral kurtosis at 13 frame lengths");
-                    let (_, best) = crate::compare::demodulation_band::demodulation_band(&e.signal, &opts, &resonances_hz).map_err(|err| err.to_string())?;
+                    let best = crate::compare::demodulation_band::demodulation_band(&e.signal, &opts, &resonances_hz).map_err(|err| err.to_string())?.band;
                     job.check()?;
                     job.send(JobOutput::DemodulationBand(e.signal.name.clone(), best));
                     Ok(())

@@ -59,3 +59,26 @@ pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
     let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
     cov / (va * vb).sqrt()
 }
+
+/// The rows of a comma-separated fixture file of numbers (blank lines skipped), as written by
+/// the fixture scripts beside it; a file or number that cannot be read fails the test, naming it.
+pub fn read_fixture_rows(path: &str) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("fixture {path}: {e}"));
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .enumerate()
+        .map(|(i, l)| l.split(',').map(|v| v.trim().parse::<f64>().unwrap_or_else(|e| panic!("fixture {path} row {}: {v:?}: {e}", i + 1))).collect())
+        .collect()
+}
+
+/// A fixture file of one number per line (blank lines skipped).
+pub fn read_fixture_column(path: &str) -> Vec<f64> {
+    read_fixture_rows(path)
+        .into_iter()
+        .enumerate()
+        .map(|(i, row)| match row[..] {
+            [v] => v,
+            _ => panic!("fixture {path} row {}: {} values where one was expected", i + 1, row.len()),
+        })
+        .collect()
+}
