@@ -68,6 +68,52 @@ fn different_sampling_rates_are_resampled_not_compared_silently_wrong() {
     assert!(c.domain("envelope").unwrap().metrics.pearson > 0.8, "{:?}", c.domain("envelope").unwrap().metrics);
 }
 
+/// A measurement sampled faster than the simulated signal is brought down to the simulated
+/// rate: content above the lower Nyquist frequency (here a strong 15 kHz tone) is not set
+/// against nothing. The up-sampled simulation compared at 48 kHz (what `compare` did before
+/// session 72) counts it in the PSD domain.
+#[test]
+fn a_measurement_sampled_faster_is_compared_at_the_simulated_rate() {
+    use twinscope::compare::at_most_rate;
+    let mut fast = bearing_signal(48000.0, 2.0, 0.5, 1);
+    for (i, v) in fast.samples.iter_mut().enumerate() {
+        *v += 2.0 * (2.0 * std::f64::consts::PI * 15000.0 * i as f64 / 48000.0).sin();
+    }
+    let slow = bearing_signal(12000.0, 2.0, 0.5, 1);
+    let c = compare(&fast, &slow, &opts()).unwrap();
+    assert_eq!((c.alignment.fs_hz, c.alignment.measured_resampled_from_hz, c.alignment.resampled_from_hz), (12000.0, Some(48000.0), None));
+    let psd = c.domain("psd_db").unwrap();
+    assert!(*psd.frequency_hz.last().unwrap() <= 6000.0, "PSD up to {} Hz", psd.frequency_hz.last().unwrap());
+    // At 48 kHz the simulation has nothing at 6–24 kHz and the tone: a far worse PSD error.
+    let up = Signal { samples: twinscope::dsp::resample::resample(&slow.samples, 12000.0, 48000.0).unwrap(), fs_hz: 48000.0, ..slow.clone() };
+    let at_48k = compare(&fast, &up, &opts()).unwrap();
+    let (nrmse, nrmse_48k) = (psd.metrics.nrmse_percent, at_48k.domain("psd_db").unwrap().metrics.nrmse_percent);
+    println!("PSD NRMSE {nrmse:.2} % / {nrmse_48k:.2} %");
+    assert!(nrmse < 0.5 * nrmse_48k, "PSD NRMSE {nrmse:.1} % at 12 kHz, {nrmse_48k:.1} % at 48 kHz");
+    // At the rate or below, the measurement is borrowed as it is; a bad rate is refused.
+    assert!(matches!(at_most_rate(&slow, 12000.0).unwrap(), std::borrow::Cow::Borrowed(_)));
+    assert!(matches!(at_most_rate(&slow, 16384.0).unwrap(), std::borrow::Cow::Borrowed(_)));
+    let down = at_most_rate(&fast, 12000.0).unwrap();
+    assert_eq!((down.fs_hz, down.len(), down.meta.shaft_speed_hz, down.unit.as_str()), (12000.0, 24000, Some(29.95), "g"));
+    assert!(at_most_rate(&slow, 0.0).unwrap_err().to_string().contains("fs_hz"));
+}
+
+/// The loop compares at the model's rate: its final comparison of a 48 kHz record is the one of
+/// the record brought down to the model's 12 kHz first, to the bit.
+#[test]
+fn the_loop_compares_a_faster_measurement_at_the_models_rate() {
+    use twinscope::compare::{at_most_rate, diagnose::final_comparison, LoopOptions};
+    let mut m = twinscope::model::preset("cwru_6205_inner").unwrap();
+    m.effects.enable(twinscope::model::EffectKind::Noise);
+    let mut fast = bearing_signal(48000.0, 2.0, 0.5, 3);
+    fast.meta.shaft_speed_hz = Some(29.95);
+    let opts = LoopOptions::default();
+    let c = final_comparison(&m, &fast, &opts).unwrap();
+    let c_down = final_comparison(&m, &at_most_rate(&fast, 12000.0).unwrap(), &opts).unwrap();
+    assert_eq!(c.alignment.fs_hz, 12000.0);
+    assert_eq!(c, c_down);
+}
+
 #[test]
 fn residual_map_puts_missing_sidebands_on_their_label() {
     // "Measurement" has load-zone modulation (BPFI ± shaft sidebands); the "model" has none.

@@ -8,6 +8,9 @@
 //!   floor, but only at the top of its range (8.9e-3 kg·m, a 313 N rotating force on the
 //!   rotor's 2 kg share): not an estimate, and the verdict names it.
 //!
+//! - 097 (healthy, recorded at 48 kHz), from the healthy preset (its load zone carries the
+//!   rotor's weight): nothing significant is missing, compared at the model's 12 kHz.
+//!
 //! (105, the 0.007 in inner race, does not reach "load_zone first": see README.)
 
 use std::path::Path;
@@ -51,4 +54,15 @@ fn outer_race_234_claims_no_shaft_rate_modulation_and_names_the_pinned_unbalance
     let unbalance = d.trials.iter().find(|t| t.effect == EffectKind::Unbalance).unwrap();
     assert_eq!(unbalance.pinned_at_top(), Some(true), "{}", unbalance.summary);
     assert!(d.verdict.contains("unbalance explains") && d.verdict.contains("top of its range"), "{}", d.verdict);
+}
+
+/// The real-data control: the healthy record against the healthy machine. The record is sampled
+/// at 48 kHz and compared at the model's 12 kHz (`compare::at_most_rate`); at 48 kHz, with the
+/// fault-free machine without its load zone, the loop claimed a load zone (docs/loop-notebook.md
+/// "Session 72").
+#[test]
+fn healthy_record_097_misses_nothing_significant() {
+    let d = run("097_normal_0hp_48k.mat", "cwru_6205_healthy");
+    assert_eq!(d.best, None, "{}", d.verdict);
+    assert!(d.verdict.starts_with("nothing significant is missing"), "{}", d.verdict);
 }

@@ -152,6 +152,34 @@ fn cwru_presets_follow_the_data_center() {
 /// The `_021` presets (records 209, 234, 222) are their 0.007 in presets with the 0.021 in
 /// (0.533 mm) fault and nothing else changed; over it the 7.94 mm ball drops 9.0 µm (1.0 µm
 /// over 0.007 in).
+/// The healthy CWRU preset is the inner-race one without its fault, at record 097's 1796 rpm,
+/// with a load zone carrying the rotor's weight (without it the fault-free model is silent) and
+/// without the 12 kHz recorder's roll-off (097 was recorded at 48 kHz).
+#[test]
+fn cwru_healthy_preset_is_the_drive_end_without_a_fault_and_with_its_load_zone() {
+    let healthy = preset("cwru_6205_healthy").unwrap();
+    let mut inner = preset("cwru_6205_inner").unwrap();
+    assert!(healthy.bearings[0].fault.is_none());
+    assert_eq!(healthy.effects.load_zone.as_ref().map(|lz| lz.radial_load_n), Some(2.0 * 9.8));
+    assert!((healthy.shafts[0].speed_hz.unwrap() - 1796.0 / 60.0).abs() < 0.01);
+    inner.bearings[0].fault = None;
+    inner.shafts[0].speed_hz = healthy.shafts[0].speed_hz;
+    inner.effects.load_zone = healthy.effects.load_zone.clone();
+    inner.sensor.antialias = None;
+    inner.name = healthy.name.clone();
+    assert_eq!(inner, healthy);
+    let rms = |m: &Machine| {
+        let mut short = m.clone();
+        short.duration_s = 0.5;
+        let s = simulate(&short).unwrap();
+        (s.samples.iter().map(|v| v * v).sum::<f64>() / s.samples.len() as f64).sqrt()
+    };
+    let mut silent = healthy.clone();
+    silent.effects.load_zone = None;
+    let (on, off) = (rms(&healthy), rms(&silent));
+    assert!(on > 1e-3 && off < 1e-12, "rms {on:.3e} g with the load zone, {off:.3e} g without");
+}
+
 #[test]
 fn cwru_021_presets_differ_only_in_the_fault_size() {
     for name in ["cwru_6205_inner", "cwru_6205_outer", "cwru_6205_ball"] {

@@ -160,6 +160,9 @@ fn run_one(job: &Job, chain: &crate::chain::Chain, model_loop: Option<&ModelLoop
     if let Some((rounds, m, opts, band_from_kurtogram)) = model_loop {
         let name = input.display_name(job);
         let mut opts = opts.clone();
+        // The model holds nothing above its Nyquist frequency: a faster-sampled input is
+        // compared at the model's rate (as run_loop would), its band chosen there too.
+        let signal = crate::compare::at_most_rate(&signal, m.fs_hz).map_err(|e| BatchError::Loop { input: name.clone(), message: e.to_string() })?;
         if *band_from_kurtogram {
             let best = crate::compare::demodulation_band::demodulation_band(&signal, &opts.compare, &m.structural_resonances_hz()).map_err(|e| BatchError::Loop { input: name.clone(), message: format!("`model_loop.band_from_kurtogram`: {e}") })?.band;
             opts.compare.envelope_band_hz = best.band_hz;
@@ -169,7 +172,7 @@ fn run_one(job: &Job, chain: &crate::chain::Chain, model_loop: Option<&ModelLoop
             true
         })
         .map_err(|e| BatchError::Loop { input: name.clone(), message: e.to_string() })?;
-        summary.model_loop = Some(output::write_loop(dir, &history, &last, &final_m, opts.compare.envelope_band_hz)?);
+        summary.model_loop = Some(output::write_loop(dir, &history, &last, &final_m, (opts.compare.envelope_band_hz, signal.fs_hz))?);
     }
     output::write_json(&dir.join("summary.json"), &summary)?;
     Ok(summary)

@@ -77,6 +77,9 @@ pub struct LoopReport {
     /// The demodulation band the comparison used, Hz (`band_hz`, the chain's, or the input's
     /// kurtogram's with `band_from_kurtogram`).
     pub demodulation_band_hz: [f64; 2],
+    /// The sampling rate the loop compared at, Hz: the input's, or the model's when the input
+    /// was sampled faster (resampled down to it: `compare::at_most_rate`).
+    pub compared_at_hz: f64,
     /// `model_loop.json`: the history, the last diagnosis (ranking, fitted parameters, floor,
     /// residual map) and the final machine.
     pub json: String,
@@ -88,9 +91,9 @@ pub struct LoopReport {
 }
 
 /// Writes the loop's outputs into `dir`.
-pub(super) fn write_loop(dir: &Path, history: &[crate::compare::Round], last: &crate::compare::Diagnosis, final_machine: &crate::model::Machine, demodulation_band_hz: [f64; 2]) -> Result<LoopReport, BatchError> {
+pub(super) fn write_loop(dir: &Path, history: &[crate::compare::Round], last: &crate::compare::Diagnosis, final_machine: &crate::model::Machine, (demodulation_band_hz, compared_at_hz): ([f64; 2], f64)) -> Result<LoopReport, BatchError> {
     let json = dir.join("model_loop.json");
-    write_json(&json, &serde_json::json!({ "history": history, "diagnosis": last, "final_machine": final_machine, "demodulation_band_hz": demodulation_band_hz }))?;
+    write_json(&json, &serde_json::json!({ "history": history, "diagnosis": last, "final_machine": final_machine, "demodulation_band_hz": demodulation_band_hz, "compared_at_hz": compared_at_hz }))?;
     let csv_path = dir.join("model_loop_history.csv");
     let werr = |m: String| BatchError::Write { path: csv_path.display().to_string(), message: m };
     let mut w = csv::Writer::from_path(&csv_path).map_err(|e| werr(e.to_string()))?;
@@ -107,6 +110,7 @@ pub(super) fn write_loop(dir: &Path, history: &[crate::compare::Round], last: &c
         applied: crate::compare::diagnose::applied_effects(history).iter().map(|k| k.name().to_string()).collect(),
         verdict: last.verdict.clone(),
         demodulation_band_hz,
+        compared_at_hz,
         json: json.display().to_string(),
         history_csv: csv_path.display().to_string(),
         final_machine: toml_path.display().to_string(),

@@ -781,11 +781,12 @@ pub fn floor_ratio_needed(opts: &LoopOptions) -> f64 {
 }
 
 /// Calibrates the model, then tries every applicable effect it lacks (in parallel), and ranks
-/// them. Returns the calibrated machine and the diagnosis. `progress(done, expected)` is
-/// called after every model evaluation (from worker threads); returning `false` cancels, and
-/// the call ends with [`LoopError::Cancelled`].
+/// them, comparing at the model's rate at most ([`super::at_most_rate`]: a measurement sampled
+/// faster is resampled down to it). Returns the calibrated machine and the diagnosis.
+/// `progress(done, expected)` is called after every model evaluation (from worker threads);
+/// returning `false` cancels, and the call ends with [`LoopError::Cancelled`].
 pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Diagnosis), LoopError> {
-    let reference = Reference::new(measured, &opts.compare)?;
+    let reference = Reference::new(&*super::at_most_rate(measured, m.fs_hz)?, &opts.compare)?;
     diagnose_with(m, &reference, opts, &LoopProgress::new(progress))
 }
 
@@ -2114,7 +2115,7 @@ pub fn check_loop_rounds(n: usize) -> Result<(), super::CompareError> {
 pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOptions, progress: &(dyn Fn(usize, usize) -> bool + Sync)) -> Result<(Machine, Vec<Round>, Diagnosis), LoopError> {
     opts.validate()?;
     check_loop_rounds(rounds)?;
-    let reference = Reference::new(measured, &opts.compare)?;
+    let reference = Reference::new(&*super::at_most_rate(measured, m.fs_hz)?, &opts.compare)?;
     let progress = &LoopProgress::new(progress);
     let mut current = m.clone();
     let mut history: Vec<Round> = Vec::new();
@@ -2224,7 +2225,7 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
 
 /// The comparison of the calibrated machine (for reports).
 pub fn final_comparison(m: &Machine, measured: &Signal, opts: &LoopOptions) -> Result<Comparison, LoopError> {
-    Ok(evaluate(m, &Reference::new(measured, &opts.compare)?, opts)?.0)
+    Ok(evaluate(m, &Reference::new(&*super::at_most_rate(measured, m.fs_hz)?, &opts.compare)?, opts)?.0)
 }
 
 #[cfg(test)]

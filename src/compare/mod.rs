@@ -169,6 +169,10 @@ pub struct Alignment {
     pub fs_hz: f64,
     /// Whether the simulated signal was resampled.
     pub resampled_from_hz: Option<f64>,
+    /// The measurement's own rate when it was brought down to the simulated signal's
+    /// ([`at_most_rate`]); `None` when compared at its own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured_resampled_from_hz: Option<f64>,
     /// Factor applied to the simulated signal's unit (e.g. 1/9.80665 for m/s² → g).
     pub unit_factor: f64,
     /// Measured / simulated shaft speed applied to the simulated frequency axes (order
@@ -205,6 +209,29 @@ impl Comparison {
     }
 }
 
+/// `measured` at a sampling rate of at most `fs_hz`: resampled down (by the Fourier method,
+/// [`dsp::resample::resample`], an ideal anti-alias filter at the new Nyquist frequency) when
+/// its own rate is higher, borrowed as it is otherwise. A model sampled at `fs_hz` holds
+/// nothing above `fs_hz / 2`, so a comparison at a measurement's higher rate would set the
+/// measured content there against nothing: the PSD domain would count bands the model cannot
+/// have, and the loop would fit noise levels and effects to them (CWRU's healthy record 097,
+/// sampled at 48 kHz, against the 12 kHz 6205 model: a load zone claimed, where at 12 kHz
+/// nothing is missing; docs/loop-notebook.md "Session 72"). [`compare`], [`diagnose`],
+/// [`run_loop`] and the loop's other entry points call it with the model's rate.
+///
+/// # Errors
+/// [`CompareError::Dsp`] when the record cannot be resampled (too short, not finite).
+pub fn at_most_rate(measured: &Signal, fs_hz: f64) -> Result<std::borrow::Cow<'_, Signal>, CompareError> {
+    if !(fs_hz.is_finite() && fs_hz > 0.0) {
+        return Err(CompareError::Parameter { name: "fs_hz", reason: format!("{fs_hz}: the rate to compare at must be a positive frequency") });
+    }
+    if measured.fs_hz <= fs_hz * (1.0 + 1e-9) {
+        return Ok(std::borrow::Cow::Borrowed(measured));
+    }
+    let samples = dsp::resample::resample(&measured.samples, measured.fs_hz, fs_hz).map_err(|e| CompareError::Dsp { domain: "resampling the measurement".into(), message: e.to_string() })?;
+    Ok(std::borrow::Cow::Owned(Signal { samples, fs_hz, ..measured.clone() }))
+}
+
 /// Brings `simulated` onto `measured`'s unit, sampling rate and length; refuses what cannot be
 /// compared (different units, speeds beyond the order-normalisation limit).
 pub fn align(measured: &Signal, simulated: &Signal, opts: &CompareOptions) -> Result<(Vec<f64>, Vec<f64>, Alignment), CompareError> {
@@ -239,7 +266,7 @@ pub fn align(measured: &Signal, simulated: &Signal, opts: &CompareOptions) -> Re
     sim.truncate(n);
     let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
     let rms_ratio_db = 20.0 * (rms(&sim) / rms(&meas).max(1e-300)).log10();
-    Ok((meas, sim, Alignment { fs_hz: measured.fs_hz, resampled_from_hz, unit_factor, speed_ratio, duration_s: n as f64 / measured.fs_hz, rms_ratio_db }))
+    Ok((meas, sim, Alignment { fs_hz: measured.fs_hz, resampled_from_hz, measured_resampled_from_hz: None, unit_factor, speed_ratio, duration_s: n as f64 / measured.fs_hz, rms_ratio_db }))
 }
 
 fn dsp_err(domain: &str) -> impl Fn(dsp::DspError) -> CompareError + '_ {
@@ -601,9 +628,15 @@ pub fn apply_gain_db(c: &mut Comparison, offset_db: f64, opts: &CompareOptions) 
     c.alignment.rms_ratio_db += offset_db;
 }
 
-/// Compares `simulated` with `measured` in every domain.
+/// Compares `simulated` with `measured` in every domain, at the lower of their two sampling
+/// rates ([`at_most_rate`]; [`Alignment`] says which was resampled).
 pub fn compare(measured: &Signal, simulated: &Signal, opts: &CompareOptions) -> Result<Comparison, CompareError> {
-    Reference::new(measured, opts)?.compare(simulated)
+    let at_rate = at_most_rate(measured, simulated.fs_hz)?;
+    let mut c = Reference::new(&at_rate, opts)?.compare(simulated)?;
+    if at_rate.fs_hz != measured.fs_hz {
+        c.alignment.measured_resampled_from_hz = Some(measured.fs_hz);
+    }
+    Ok(c)
 }
 
 #[cfg(test)]

@@ -112,7 +112,8 @@ pub fn refit_and_search(stuck: &model::Machine, start: &model::Machine, a: model
         compare::LoopError::Cancelled => "cancelled".to_string(),
         e => format!("re-fit of {} against `{}`: {e}", a.name(), measured.signal.name),
     };
-    let reference = compare::Reference::new(&measured.signal, &opts.compare).map_err(|e| failed(e.into()))?;
+    let at_rate = compare::at_most_rate(&measured.signal, stuck.fs_hz).map_err(|e| failed(e.into()))?;
+    let reference = compare::Reference::new(&at_rate, &opts.compare).map_err(|e| failed(e.into()))?;
     let refitted = compare::diagnose::refit_from_uncalibrated(stuck, start, a, &reference, opts, &compare::LoopProgress::new(&report)).map_err(failed)?;
     Ok(LoopResult { refitted: Some(a), ..find_missing_effect(&refitted, measured, opts, job)? })
 }

@@ -41,13 +41,14 @@ pub fn simulate(machine: &Machine) -> Result<Signal, ModelError> {
 }
 
 /// The bundled machine presets (`assets/machines/*.toml`), compiled into the binary.
-pub const PRESETS: [(&str, &str); 11] = [
+pub const PRESETS: [(&str, &str); 12] = [
     ("cwru_6205_inner", include_str!("../../assets/machines/cwru_6205_inner.toml")),
     ("cwru_6205_outer", include_str!("../../assets/machines/cwru_6205_outer.toml")),
     ("cwru_6205_ball", include_str!("../../assets/machines/cwru_6205_ball.toml")),
     ("cwru_6205_inner_021", include_str!("../../assets/machines/cwru_6205_inner_021.toml")),
     ("cwru_6205_outer_021", include_str!("../../assets/machines/cwru_6205_outer_021.toml")),
     ("cwru_6205_ball_021", include_str!("../../assets/machines/cwru_6205_ball_021.toml")),
+    ("cwru_6205_healthy", include_str!("../../assets/machines/cwru_6205_healthy.toml")),
     ("mfs_outer", include_str!("../../assets/machines/mfs_outer.toml")),
     ("mfs_inner", include_str!("../../assets/machines/mfs_inner.toml")),
     ("mfs_ball", include_str!("../../assets/machines/mfs_ball.toml")),
