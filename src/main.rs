@@ -878,6 +878,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
         }
         (None, None) => anyhow::bail!("give a simulated file or --preset"),
     };
+    let recorded_fs_hz = meas.fs_hz;
     let meas = at_most_rate(meas, sim.fs_hz, if simulated.is_some() { "the simulated signal" } else { "the model" }, quiet)?;
     band.apply(&mut opts, &meas, &resonances_hz, quiet)?;
     let bearing_name = bearing.or(meas.meta.bearing.clone()).or(sim.meta.bearing.clone());
@@ -885,13 +886,16 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
         (Some(b), Some(fr)) => Some(lookup_bearing(&b)?.fault_frequencies(fr)?),
         _ => None,
     };
-    let cmp = compare::compare(&meas, &sim, &opts)?;
+    let mut cmp = compare::compare(&meas, &sim, &opts)?;
+    if meas.fs_hz != recorded_fs_hz {
+        cmp.alignment.measured_resampled_from_hz = Some(recorded_fs_hz);
+    }
     println!("{:<18} {:>9} {:>9} {:>6} {:>12} {:>10}", "domain", "pearson", "xcorr", "lag", "rmse", "nrmse_%");
     for d in &cmp.domains {
         let m = &d.metrics;
         println!("{:<18} {:>9.3} {:>9.3} {:>6} {:>12.4e} {:>10.2}", d.domain, m.pearson, m.xcorr_peak, m.xcorr_lag, m.rmse, m.nrmse_percent);
     }
-    println!("NRMSE normaliser: {}; simulated/measured RMS {:+.1} dB", opts.normaliser.name(), cmp.alignment.rms_ratio_db);
+    println!("NRMSE normaliser: {}; simulated/measured RMS {:+.1} dB; compared at {}", opts.normaliser.name(), cmp.alignment.rms_ratio_db, cmp.alignment.rate_in_words());
     if let Some(pc) = &cmp.path_correction {
         println!("transfer-path correction applied to the simulation (dB at band centres):");
         println!("  {pc}");

@@ -283,9 +283,10 @@ fn compare_brings_a_faster_record_down_to_the_models_rate_and_says_so() {
     let r = run(&["compare", rec.to_str().unwrap(), "--preset", "cwru_6205_inner", "--band-hz", "1800,3000", "--json", json.to_str().unwrap()]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stderr.contains("sampled at 48000 Hz, is compared at the model's 12000 Hz"), "{}", r.stderr);
+    assert!(r.stdout.contains("compared at 12000 Hz (the measurement resampled from 48000 Hz)"), "{}", r.stdout);
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let al = &v["comparison"]["alignment"];
-    assert_eq!((al["fs_hz"].as_f64(), al["resampled_from_hz"].as_f64()), (Some(12000.0), None), "{al}");
+    assert_eq!((al["fs_hz"].as_f64(), al["measured_resampled_from_hz"].as_f64(), al["resampled_from_hz"].as_f64()), (Some(12000.0), Some(48000.0), None), "{al}");
     let psd = v["comparison"]["domains"].as_array().unwrap().iter().find(|d| d["domain"] == "psd_db").unwrap();
     let top_hz = psd["frequency_hz"].as_array().unwrap().last().unwrap().as_f64().unwrap();
     assert!(top_hz <= 6000.0, "PSD compared up to {top_hz} Hz");

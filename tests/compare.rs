@@ -64,6 +64,7 @@ fn different_sampling_rates_are_resampled_not_compared_silently_wrong() {
     let b = bearing_signal(16384.0, 2.0, 0.5, 1);
     let c = compare(&a, &b, &opts()).unwrap();
     assert_eq!(c.alignment.resampled_from_hz, Some(16384.0));
+    assert_eq!(c.alignment.rate_in_words(), "12000 Hz (the simulation resampled from 16384 Hz)");
     // Same process, different sampling: envelope spectra agree well.
     assert!(c.domain("envelope").unwrap().metrics.pearson > 0.8, "{:?}", c.domain("envelope").unwrap().metrics);
 }
@@ -82,6 +83,7 @@ fn a_measurement_sampled_faster_is_compared_at_the_simulated_rate() {
     let slow = bearing_signal(12000.0, 2.0, 0.5, 1);
     let c = compare(&fast, &slow, &opts()).unwrap();
     assert_eq!((c.alignment.fs_hz, c.alignment.measured_resampled_from_hz, c.alignment.resampled_from_hz), (12000.0, Some(48000.0), None));
+    assert_eq!(c.alignment.rate_in_words(), "12000 Hz (the measurement resampled from 48000 Hz)");
     let psd = c.domain("psd_db").unwrap();
     assert!(*psd.frequency_hz.last().unwrap() <= 6000.0, "PSD up to {} Hz", psd.frequency_hz.last().unwrap());
     // At 48 kHz the simulation has nothing at 6–24 kHz and the tone: a far worse PSD error.

@@ -184,6 +184,15 @@ pub struct Alignment {
     pub rms_ratio_db: f64,
 }
 
+impl Alignment {
+    /// The common rate in words, naming the signal resampled to it: "12000 Hz (the measurement
+    /// resampled from 48000 Hz)".
+    pub fn rate_in_words(&self) -> String {
+        let from = |what: &str, hz: Option<f64>| hz.map(|hz| format!(" ({what} resampled from {hz:.0} Hz)")).unwrap_or_default();
+        format!("{:.0} Hz{}{}", self.fs_hz, from("the measurement", self.measured_resampled_from_hz), from("the simulation", self.resampled_from_hz))
+    }
+}
+
 /// The result of [`compare`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Comparison {

@@ -68,13 +68,13 @@ impl View for CompareView {
         };
         let cmp = &c.comparison;
         ui.add(egui::Label::new(format!(
-            "{} vs {} · demodulation band {:.0}–{:.0} Hz · {:.2} s compared at {:.0} Hz · simulated/measured RMS {:+.1} dB · speed ratio {:.4} · NRMSE normaliser {}",
+            "{} vs {} · demodulation band {:.0}–{:.0} Hz · {:.2} s compared at {} · simulated/measured RMS {:+.1} dB · speed ratio {:.4} · NRMSE normaliser {}",
             c.measured,
             c.simulated,
             c.options.envelope_band_hz[0],
             c.options.envelope_band_hz[1],
             cmp.alignment.duration_s,
-            cmp.alignment.fs_hz,
+            cmp.alignment.rate_in_words(),
             cmp.alignment.rms_ratio_db,
             cmp.alignment.speed_ratio,
             c.options.normaliser.name()
