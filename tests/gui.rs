@@ -988,3 +988,22 @@ fn compare_view_sets_the_band_from_the_kurtogram() {
     assert!(last.contains("no bandpass stage"), "{last}");
     assert_eq!(h.state().session.chain, before);
 }
+
+/// CWRU's healthy record (48 kHz) against the healthy 6205 model (12 kHz): the model is
+/// simulated and compared at its own rate, and the compare view says the measurement was
+/// resampled (`compare::at_most_rate`).
+#[test]
+fn compare_view_names_the_measurement_resampled_to_the_models_rate() {
+    let record = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/cwru/097_normal_0hp_48k.mat");
+    let mut h = harness(StartOptions { tab: Some("compare".into()), files: vec![record], ..Default::default() });
+    wait_for(&mut h, "the file to load", 60, |a| !a.session.signals.is_empty());
+    idle(&mut h, "loading", 60);
+    h.state_mut().execute(Command::LoadMachinePreset("cwru_6205_healthy".into()));
+    h.state_mut().execute(Command::SimulateModel { measured: Some(0) });
+    h.run_steps(2);
+    idle(&mut h, "the simulation and comparison", 120);
+    let c = h.state().session.comparison.as_ref().expect("a comparison");
+    assert_eq!((c.comparison.alignment.fs_hz, c.comparison.alignment.measured_resampled_from_hz), (12000.0, Some(48000.0)));
+    h.run_steps(2);
+    assert!(!labels_containing(&h, "compared at 12000 Hz (the measurement resampled from 48000 Hz)").is_empty(), "messages: {:?}", h.state().session.messages.iter().map(|m| m.text.clone()).collect::<Vec<_>>());
+}
