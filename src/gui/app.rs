@@ -200,9 +200,12 @@ impl Workbench {
                 };
                 let opts = jobs::compare_options_for(&self.session.chain);
                 let resonances_hz = self.session.model.machine.structural_resonances_hz();
+                let model_fs_hz = self.session.model.machine.fs_hz;
                 self.worker.spawn(format!("kurtogram of {}", e.signal.name), move |job| {
                     job.set_step("spectral kurtosis at 13 frame lengths");
-                    let best = crate::compare::demodulation_band::demodulation_band(&e.signal, &opts, &resonances_hz).map_err(|err| err.to_string())?.band;
+                    // At the model's rate at most, as the loop compares: the band must be one the model holds.
+                    let at_rate = crate::compare::at_most_rate(&e.signal, model_fs_hz).map_err(|err| err.to_string())?;
+                    let best = crate::compare::demodulation_band::demodulation_band(&at_rate, &opts, &resonances_hz).map_err(|err| err.to_string())?.band;
                     job.check()?;
                     job.send(JobOutput::DemodulationBand(e.signal.name.clone(), best));
                     Ok(())
