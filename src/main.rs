@@ -804,7 +804,6 @@ fn simulate(machine: Option<PathBuf>, preset: Option<String>, output: &Path, dur
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
 /// The demodulation band asked for on the command line.
 struct Band {
     /// `--band-hz low,high`.
@@ -839,7 +838,6 @@ impl Band {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 /// `meas` at `fs_hz` at most (`compare::at_most_rate`): what it is compared with holds nothing
 /// above `fs_hz / 2`. Says so on stderr when it resamples.
 fn at_most_rate(meas: twinscope::signal::Signal, fs_hz: f64, of_what: &str, quiet: bool) -> Result<twinscope::signal::Signal> {
@@ -858,6 +856,7 @@ fn at_most_rate(meas: twinscope::signal::Signal, fs_hz: f64, of_what: &str, quie
     })
 }
 
+#[allow(clippy::too_many_arguments)]
 fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>, with: &[String], channel: Option<String>, band: Band, bearing: Option<String>, fault_hz: Option<f64>, path_correction_bands: usize, json: Option<&Path>, quiet: bool) -> Result<()> {
     use twinscope::compare::{self, diagnose::fault_frequency_hz, CompareOptions};
     use twinscope::model::{self, EffectKind};
