@@ -48,6 +48,7 @@ def main():
         "filtfilt": median_ms(lambda: ss.filtfilt(taps, [1.0], x), r),
         "loadmat": median_ms(lambda: scipy.io.loadmat(spec["mat"]), r),
         "kurtogram": median_ms(lambda: kurtogram(x, fs, spec["kurtogram_lengths"]), r),
+        "resample": median_ms(lambda: ss.resample(x, int(round(len(x) * 12000.0 / fs))), r),
         "versions": f"numpy {np.__version__}, scipy {scipy.__version__}, python {sys.version.split()[0]}",
     }
     print(json.dumps(out))

@@ -189,6 +189,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         reference: "scipy.signal.stft + numpy moments, per length",
         reference_key: Some("kurtogram"),
     });
+    rows.push(Row {
+        name: format!("resample 10 s from {fs:.0} Hz to 12000 Hz (Fourier method: a faster measurement brought to a model's rate)"),
+        ours_ms: median_ms(r, || Ok(dsp::resample::resample(&x, fs, 12000.0).map(|_| ())?))?,
+        reference: "scipy.signal.resample",
+        reference_key: Some("resample"),
+    });
     let drs = dsp::drs::DrsParams::default();
     rows.push(Row { name: "DRS (defaults)".into(), ours_ms: median_ms(r, || Ok(dsp::drs::drs(&x, fs, &drs).map(|_| ())?))?, reference: "-", reference_key: None });
     let stsa = dsp::stsa::StsaParams { fault_frequency_hz: 107.0, ..Default::default() };

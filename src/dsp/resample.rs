@@ -30,14 +30,15 @@ pub fn resample(x: &[f64], fs_in_hz: f64, fs_out_hz: f64) -> Result<Vec<f64>, Ds
     let mut out = vec![Complex64::new(0.0, 0.0); m / 2 + 1];
     out[..keep].copy_from_slice(&spec[..keep]);
     // Nyquist handling as scipy: when the shorter length is even, its Nyquist bin is shared
-    // between ±f; up-sampling halves it, down-sampling keeps the real part (the sum of both).
+    // between ±f; up-sampling halves it, down-sampling unites the pair, X(f) + X(−f) = 2 Re X(f)
+    // for a real record (tests/fixtures/resample: until session 72 it kept Re X(f) alone).
     let short = n.min(m);
     if short.is_multiple_of(2) {
         let k = short / 2;
         if m > n {
             out[k] *= 0.5;
         } else {
-            out[k] = Complex64::new(out[k].re, 0.0);
+            out[k] = Complex64::new(2.0 * out[k].re, 0.0);
         }
     }
     let scale = m as f64 / n as f64;
