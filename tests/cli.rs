@@ -373,6 +373,7 @@ dir = "out"
     // The final machine names what the loop fitted, for a loop going on from it.
     assert!(final_machine.contains("fitted_effects = [\"load_zone\"]"), "{final_machine}");
     assert_eq!(l["demodulation_band_hz"], serde_json::json!([1800.0, 3000.0]));
+    assert_eq!(l["compared_at_hz"], serde_json::json!(12000.0));
     assert!(r.stderr.contains("model loop round 1"), "{}", r.stderr);
     // Each input's band from its kurtogram: one holding the machine's 2.6 kHz resonator.
     let text = std::fs::read_to_string(&job).unwrap().replacen("band_hz = [1800.0, 3000.0]", "band_from_kurtogram = true", 1).replacen("rounds = 2", "rounds = 1", 1);
@@ -421,4 +422,24 @@ fn the_kurtogram_names_the_band_and_compare_demodulates_in_it() {
     assert_ne!(both.code, 0);
     assert!(both.stderr.contains("--band-from-kurtogram") && both.stderr.contains("--band-hz"), "{}", both.stderr);
     assert_clean_failure(&run(&["kurtogram", m, "--min-band-width-hz", "9000"]), &["min_band_width_hz"]);
+}
+
+/// A batch loop on CWRU's healthy record (48 kHz) with the 12 kHz healthy machine compares at
+/// the model's rate and records it.
+#[test]
+fn a_batch_loop_compares_a_faster_record_at_the_models_rate() {
+    let d = tempfile::tempdir().unwrap();
+    let job = d.path().join("healthy.toml");
+    let text = format!(
+        "[input]\npaths = [{:?}]\n[chain]\npreset = \"welch\"\n[model_loop]\npreset = \"cwru_6205_healthy\"\nwith = [\"noise\"]\nrounds = 1\ncandidates = [\"slip\"]\nfit_duration_s = 0.6\nband_hz = [1800.0, 3000.0]\n[output]\ndir = \"out\"\n",
+        cwru("097_normal_0hp_48k.mat").display().to_string()
+    );
+    std::fs::write(&job, text).unwrap();
+    let r = run(&["--batch", job.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path().join("out/summary.json")).unwrap()).unwrap();
+    let l = &summary["inputs"][0]["model_loop"];
+    assert_eq!(l["compared_at_hz"], serde_json::json!(12000.0), "{l}");
+    let saved: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(l["json"].as_str().unwrap()).unwrap()).unwrap();
+    assert_eq!(saved["compared_at_hz"], serde_json::json!(12000.0));
 }
