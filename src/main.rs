@@ -1057,7 +1057,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         }
     }
     if let Some(p) = json {
-        std::fs::write(p, serde_json::to_string_pretty(&serde_json::json!({ "history": history, "diagnosis": last, "final_machine": final_m }))?)?;
+        std::fs::write(p, serde_json::to_string_pretty(&serde_json::json!({ "history": history, "diagnosis": last, "final_machine": final_m, "compared_at_hz": meas.fs_hz }))?)?;
     }
     if let Some(p) = save_machine {
         std::fs::write(p, final_m.to_toml()).with_context(|| format!("writing {}", p.display()))?;

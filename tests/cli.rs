@@ -273,10 +273,10 @@ fn simulate_writes_a_signal_that_info_reads_back() {
     assert_clean_failure(&r, &["no_such_rig"]);
 }
 
-/// CWRU's healthy record is sampled at 48 kHz, the 6205 model at 12 kHz: `compare` brings the
-/// record down to the model's rate, says so, and records it in the JSON.
+/// CWRU's healthy record is sampled at 48 kHz, the 6205 model at 12 kHz: `compare` and
+/// `diagnose` bring the record down to the model's rate, say so, and record it in the JSON.
 #[test]
-fn compare_brings_a_faster_record_down_to_the_models_rate_and_says_so() {
+fn compare_and_diagnose_bring_a_faster_record_down_to_the_models_rate_and_say_so() {
     let d = tempfile::tempdir().unwrap();
     let json = d.path().join("cmp.json");
     let rec = cwru("097_normal_0hp_48k.mat");
@@ -290,6 +290,12 @@ fn compare_brings_a_faster_record_down_to_the_models_rate_and_says_so() {
     let psd = v["comparison"]["domains"].as_array().unwrap().iter().find(|d| d["domain"] == "psd_db").unwrap();
     let top_hz = psd["frequency_hz"].as_array().unwrap().last().unwrap().as_f64().unwrap();
     assert!(top_hz <= 6000.0, "PSD compared up to {top_hz} Hz");
+    let dj = d.path().join("diagnose.json");
+    let r = run(&["diagnose", rec.to_str().unwrap(), "--preset", "cwru_6205_healthy", "--with", "noise", "--band-hz", "1800,3000", "--fit-duration-s", "0.5", "--json", dj.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stderr.contains("sampled at 48000 Hz, is compared at the model's 12000 Hz"), "{}", r.stderr);
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&dj).unwrap()).unwrap();
+    assert_eq!(v["compared_at_hz"], serde_json::json!(12000.0));
 }
 
 #[test]

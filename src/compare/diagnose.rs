@@ -790,7 +790,9 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
     diagnose_with(m, &reference, opts, &LoopProgress::new(progress))
 }
 
-/// [`diagnose`] against a prepared [`Reference`]. With
+/// [`diagnose`] against a prepared [`Reference`], which should hold the measurement at the
+/// model's rate at most ([`super::at_most_rate`]; a faster one is compared against the
+/// up-sampled model, which holds nothing above its own Nyquist frequency). With
 /// [`LoopOptions::random_effect_realisations`] K ≥ 2 and one realisation, a diagnosis whose
 /// best-ranked trial is a random effect ([`EffectKind::draws_at_random`]) is done again with K
 /// realisations, and that one is returned ([`Diagnosis::second_look`]).
