@@ -840,7 +840,7 @@ impl Band {
 
 /// `meas` at `fs_hz` at most (`compare::at_most_rate`): what it is compared with holds nothing
 /// above `fs_hz / 2`. Says so on stderr when it resamples.
-fn at_most_rate(meas: twinscope::signal::Signal, fs_hz: f64, of_what: &str, quiet: bool) -> Result<twinscope::signal::Signal> {
+fn at_model_rate_noted(meas: twinscope::signal::Signal, fs_hz: f64, of_what: &str, quiet: bool) -> Result<twinscope::signal::Signal> {
     let resampled = match twinscope::compare::at_most_rate(&meas, fs_hz)? {
         std::borrow::Cow::Owned(s) => Some(s),
         std::borrow::Cow::Borrowed(_) => None,
@@ -878,7 +878,7 @@ fn compare_cmd(measured: &Path, simulated: Option<&Path>, preset: Option<String>
         (None, None) => anyhow::bail!("give a simulated file or --preset"),
     };
     let recorded_fs_hz = meas.fs_hz;
-    let meas = at_most_rate(meas, sim.fs_hz, if simulated.is_some() { "the simulated signal" } else { "the model" }, quiet)?;
+    let meas = at_model_rate_noted(meas, sim.fs_hz, if simulated.is_some() { "the simulated signal" } else { "the model" }, quiet)?;
     band.apply(&mut opts, &meas, &resonances_hz, quiet)?;
     let bearing_name = bearing.or(meas.meta.bearing.clone()).or(sim.meta.bearing.clone());
     let ff = match (bearing_name, meas.meta.shaft_speed_hz) {
@@ -935,7 +935,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     }
     step.apply(&mut m);
     m.validate()?;
-    let meas = at_most_rate(meas, m.fs_hz, "the model", quiet)?;
+    let meas = at_model_rate_noted(meas, m.fs_hz, "the model", quiet)?;
     let band_set = band.apply(&mut opts.compare, &meas, &m.structural_resonances_hz(), quiet)?;
     if band.hz.is_some() || band.from_kurtogram {
         go_on_args.extend(["--band-hz".to_string(), band_set.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(",")]);

@@ -149,9 +149,6 @@ fn cwru_presets_follow_the_data_center() {
     }
 }
 
-/// The `_021` presets (records 209, 234, 222) are their 0.007 in presets with the 0.021 in
-/// (0.533 mm) fault and nothing else changed; over it the 7.94 mm ball drops 9.0 µm (1.0 µm
-/// over 0.007 in).
 /// The healthy CWRU preset is the inner-race one without its fault, at record 097's 1796 rpm,
 /// with a load zone carrying the rotor's weight (without it the fault-free model is silent) and
 /// without the 12 kHz recorder's roll-off (097 was recorded at 48 kHz).
@@ -180,6 +177,9 @@ fn cwru_healthy_preset_is_the_drive_end_without_a_fault_and_with_its_load_zone()
     assert!(on > 1e-3 && off < 1e-12, "rms {on:.3e} g with the load zone, {off:.3e} g without");
 }
 
+/// The `_021` presets (records 209, 234, 222) are their 0.007 in presets with the 0.021 in
+/// (0.533 mm) fault and nothing else changed; over it the 7.94 mm ball drops 9.0 µm (1.0 µm
+/// over 0.007 in).
 #[test]
 fn cwru_021_presets_differ_only_in_the_fault_size() {
     for name in ["cwru_6205_inner", "cwru_6205_outer", "cwru_6205_ball"] {

@@ -165,7 +165,8 @@ impl DomainComparison {
 /// How the two signals were brought together.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Alignment {
-    /// Common sampling rate, Hz (the measured one).
+    /// Common sampling rate, Hz: the lower of the two signals' ([`compare`]), or the
+    /// measurement's when the simulated signal is compared with it as it is ([`align`]).
     pub fs_hz: f64,
     /// Whether the simulated signal was resampled.
     pub resampled_from_hz: Option<f64>,
@@ -238,7 +239,7 @@ pub fn at_most_rate(measured: &Signal, fs_hz: f64) -> Result<std::borrow::Cow<'_
         return Ok(std::borrow::Cow::Borrowed(measured));
     }
     let samples = dsp::resample::resample(&measured.samples, measured.fs_hz, fs_hz).map_err(|e| CompareError::Dsp { domain: "resampling the measurement".into(), message: e.to_string() })?;
-    Ok(std::borrow::Cow::Owned(Signal { samples, fs_hz, ..measured.clone() }))
+    Ok(std::borrow::Cow::Owned(Signal { samples, fs_hz, name: measured.name.clone(), unit: measured.unit.clone(), meta: measured.meta.clone() }))
 }
 
 /// Brings `simulated` onto `measured`'s unit, sampling rate and length; refuses what cannot be

@@ -31,7 +31,8 @@ pub fn resample(x: &[f64], fs_in_hz: f64, fs_out_hz: f64) -> Result<Vec<f64>, Ds
     out[..keep].copy_from_slice(&spec[..keep]);
     // Nyquist handling as scipy: when the shorter length is even, its Nyquist bin is shared
     // between ±f; up-sampling halves it, down-sampling unites the pair, X(f) + X(−f) = 2 Re X(f)
-    // for a real record (tests/fixtures/resample: until session 72 it kept Re X(f) alone).
+    // for a real record (tests/fixtures/resample). The model's anti-alias decimation uses this
+    // function too (`model::simulate`).
     let short = n.min(m);
     if short.is_multiple_of(2) {
         let k = short / 2;
