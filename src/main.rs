@@ -382,6 +382,13 @@ struct SearchArgs {
     /// (`Diagnosis::strength_range` in the JSON). 7 local re-fits more when something is chosen.
     #[arg(long)]
     strength_range: bool,
+    /// After the search, take each part of the starting model out in turn (a bearing's fault,
+    /// each effect that is on but the noise), calibrate the rest as the model was, and say
+    /// whether the measurement contradicts the part, needs it, or cannot tell
+    /// (`Diagnosis::removals` in the JSON). The search only adds effects; a fault the machine
+    /// does not have is otherwise hidden by the calibration. One calibration more per part
+    #[arg(long)]
+    removal_trials: bool,
     /// Do not start the best three stage-1 trials (those stage 2 re-fits) also from the
     /// uncalibrated values. By default they are (their effect scanned, then the plain trial's
     /// fit) and the better fit goes on to stage 2: for a calibration that moved a base
@@ -519,7 +526,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, removal_trials: self.removal_trials, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         if let Some(w) = self.domain_weights {
@@ -1039,6 +1046,12 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             r.objective_fitted,
             r.profile.iter().map(|(v, j)| format!("{v:.3e}: {j:.2}")).collect::<Vec<_>>().join(", ")
         );
+    }
+    if !last.removals.is_empty() {
+        println!("\nremoval trials (last round: each part of its starting model taken out and the rest calibrated again, both models judged on {} held-out realisations):", last.removals[0].realisations);
+        for r in &last.removals {
+            println!("  {:<13} {}", r.reading.name(), r.summary);
+        }
     }
     if history.len() > 1 || rounds > 1 {
         println!("\nhistory:");

@@ -544,6 +544,14 @@ pub struct LoopOptions {
     /// 1.5 within the scatter (docs/loop-notebook.md "The effect's strength in stage 2"). Costs
     /// 7 local re-fits (in parallel) when something is chosen. Default: off.
     pub strength_range: bool,
+    /// After the search, the removal trials of the round's starting model: each bearing fault
+    /// and each effect that is on (but the noise) taken out in turn, the rest calibrated as
+    /// the round's model was, and read against the seed scatter and floor: contradicted by the
+    /// measurement, needed, or not told apart ([`crate::compare::removal`]). The search only
+    /// adds; a fault the machine does not have is otherwise hidden by the calibration (CWRU's
+    /// healthy record 097 against the inner-race preset: docs/loop-notebook.md "Session 72").
+    /// Costs one calibration per part (in parallel). Default: off.
+    pub removal_trials: bool,
     /// Sweeps of a polish after every full-range fit (the calibration, a trial that re-does
     /// the calibration with its effect, a start from the uncalibrated values unless
     /// [`LoopOptions::polish_second_starts`] is off): each fitted
@@ -685,7 +693,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: true, coupled_refined_starts: default_coupled_refined_starts(), force_pair_grid: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: true, coupled_refined_starts: default_coupled_refined_starts(), force_pair_grid: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, removal_trials: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

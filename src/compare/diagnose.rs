@@ -278,6 +278,11 @@ pub struct Diagnosis {
     /// head of [`Diagnosis::trials`] and the diagnosis's choice. Empty otherwise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub joint_trials: Vec<EffectTrial>,
+    /// With [`LoopOptions::removal_trials`]: each part of the starting model (a bearing's
+    /// fault, an effect that is on) taken out and the rest calibrated again, with what the
+    /// measurement says of it ([`super::removal`]). Empty otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub removals: Vec<super::removal::RemovalTrial>,
 }
 
 /// A diagnosis redone with several realisations because a random effect led it with one
@@ -459,7 +464,7 @@ fn switched_off(mut fm: Machine, t: &EffectTrial) -> Machine {
 pub(super) const TRIAL_REFINE: [Param; 1] = [Param::NoiseSnrDb];
 
 /// Seeds of the replicas behind [`seed_floor`].
-const FLOOR_SEEDS: [u64; 2] = [0x5EED_0001, 0x5EED_0002];
+pub(super) const FLOOR_SEEDS: [u64; 2] = [0x5EED_0001, 0x5EED_0002];
 
 /// The objective (and per-domain NRMSE) of `m` against realisations of itself with other seeds,
 /// averaged over [`FLOOR_SEEDS`]: what even a perfect model scores against this measurement's
@@ -815,9 +820,18 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 /// With [`LoopOptions::strength_range`], the answer's chosen effect gets the range of its
 /// strength ([`Diagnosis::strength_range`]), judged with the realisations of the search that
 /// chose it.
+///
+/// With [`LoopOptions::removal_trials`], the answer also holds the removal trials of `m`
+/// ([`Diagnosis::removals`]), judged with at least [`super::removal::REMOVAL_REALISATIONS`].
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let (cal, d) = diagnose_search(m, reference, opts, progress)?;
-    answer(cal, d, reference, opts, progress)
+    let (cal, mut d) = answer(cal, d, reference, opts, progress)?;
+    if opts.removal_trials {
+        let judged = super::removal::removal_options(opts);
+        progress.expect(super::removal::removal_trial_evaluations(m, &judged));
+        d.removals = super::removal::removal_trials(m, reference, &judged, progress)?;
+    }
+    Ok((cal, d))
 }
 
 /// A whole search's diagnosis `d` of `cal` made the answer: [`noted_once`], then
@@ -951,9 +965,25 @@ fn look_twice(first: (Machine, Diagnosis), m: &Machine, reference: &Reference, o
 /// The model evaluations of a diagnosis's calibrated start ([`diagnose`]): the calibration of
 /// `m`, the calibrated model's comparison, its seed floor and its scatter.
 pub fn calibration_evaluations(m: &Machine, opts: &LoopOptions) -> usize {
+    calibrate_round_evaluations(m, opts) + 1 + FLOOR_SEEDS.len() + SCATTER_SEEDS.len()
+}
+
+/// The model evaluations of [`calibrate_round`] of `m` over its [`calibration_parameters_for`].
+pub(super) fn calibrate_round_evaluations(m: &Machine, opts: &LoopOptions) -> usize {
     let params = calibration_parameters_for(m, opts);
     let pair = if calibrated_force_pair(m, &params, opts).is_some() { force_pair_evaluations() } else { 0 };
-    fit_evaluations(m, &params, &[], opts.sweeps, opts) + pair + 1 + FLOOR_SEEDS.len() + SCATTER_SEEDS.len()
+    fit_evaluations(m, &params, &[], opts.sweeps, opts) + pair
+}
+
+/// A round's calibration of `m` over `cal_params` ([`calibration_parameters_for`]): the fit,
+/// then the joint grid of an applied unbalance and misalignment ([`calibrated_force_pair`]).
+/// Its evaluations are [`calibration_evaluations`]' but for the comparison, floor and scatter.
+pub(super) fn calibrate_round(m: &Machine, reference: &Reference, cal_params: &[Param], opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Fit), LoopError> {
+    let (machine, fit) = fit_with_progress(m, reference, cal_params, opts.sweeps, opts, progress)?;
+    match calibrated_force_pair(m, cal_params, opts) {
+        Some(pair) => fit_force_pair(&machine, reference, fit, pair, opts, progress),
+        None => Ok((machine, fit)),
+    }
 }
 
 /// The unbalance and misalignment amplitudes a round's calibration also fits jointly
@@ -1182,11 +1212,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let start_index = match known {
         Some(i) => i,
         None => {
-            let (machine, fit) = fit_with_progress(m, measured, &cal_params, opts.sweeps, opts, progress)?;
-            let (machine, fit) = match calibrated_force_pair(m, &cal_params, opts) {
-                Some(pair) => fit_force_pair(&machine, measured, fit, pair, opts, progress)?,
-                None => (machine, fit),
-            };
+            let (machine, fit) = calibrate_round(m, measured, &cal_params, opts, progress)?;
             let (comparison, _) = evaluate(&machine, measured, opts)?;
             progress.tick();
             let floor = seed_floor(&machine, measured.measured(), &comparison, opts)?;
@@ -1466,7 +1492,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let near_floor_lead = named_lead(&trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead, joint_trials: Vec::new() }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead, joint_trials: Vec::new(), removals: Vec::new() }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before

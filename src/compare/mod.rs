@@ -8,6 +8,7 @@ pub mod diagnose;
 pub mod hidden;
 pub mod joint;
 pub mod metrics;
+pub mod removal;
 pub mod residual;
 pub mod strength_range;
 
