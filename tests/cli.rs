@@ -291,11 +291,19 @@ fn compare_and_diagnose_bring_a_faster_record_down_to_the_models_rate_and_say_so
     let top_hz = psd["frequency_hz"].as_array().unwrap().last().unwrap().as_f64().unwrap();
     assert!(top_hz <= 6000.0, "PSD compared up to {top_hz} Hz");
     let dj = d.path().join("diagnose.json");
-    let r = run(&["diagnose", rec.to_str().unwrap(), "--preset", "cwru_6205_healthy", "--with", "noise", "--band-hz", "1800,3000", "--fit-duration-s", "0.5", "--json", dj.to_str().unwrap()]);
+    let r = run(&["diagnose", rec.to_str().unwrap(), "--preset", "cwru_6205_healthy", "--with", "noise", "--band-hz", "1800,3000", "--fit-duration-s", "0.5", "--removal-trials", "--json", dj.to_str().unwrap()]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stderr.contains("sampled at 48000 Hz, is compared at the model's 12000 Hz"), "{}", r.stderr);
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&dj).unwrap()).unwrap();
     assert_eq!(v["compared_at_hz"], serde_json::json!(12000.0));
+    // The healthy preset's one part to take out is its load zone (with the contact
+    // nonlinearity acting through it; the noise is the record's): one removal trial, printed
+    // with its reading and saved.
+    assert!(r.stdout.contains("removal trials (last round") && r.stdout.contains("load_zone (with nonlinear_contact, which acts through it)"), "{}", r.stdout);
+    let removals = v["diagnosis"]["removals"].as_array().expect("removals in the JSON");
+    assert_eq!(removals.len(), 1, "{removals:?}");
+    assert_eq!(removals[0]["part"], serde_json::json!({ "effect": "load_zone" }));
+    assert!(["contradicted", "cannot_tell", "needed"].contains(&removals[0]["reading"].as_str().unwrap()));
 }
 
 #[test]
@@ -437,7 +445,7 @@ fn a_batch_loop_compares_a_faster_record_at_the_models_rate() {
     let d = tempfile::tempdir().unwrap();
     let job = d.path().join("healthy.toml");
     let text = format!(
-        "[input]\npaths = [{:?}]\n[chain]\npreset = \"welch\"\n[model_loop]\npreset = \"cwru_6205_healthy\"\nwith = [\"noise\"]\nrounds = 1\ncandidates = [\"slip\"]\nfit_duration_s = 0.6\nband_hz = [1800.0, 3000.0]\n[output]\ndir = \"out\"\n",
+        "[input]\npaths = [{:?}]\n[chain]\npreset = \"welch\"\n[model_loop]\npreset = \"cwru_6205_healthy\"\nwith = [\"noise\"]\nrounds = 1\ncandidates = [\"slip\"]\nfit_duration_s = 0.6\nband_hz = [1800.0, 3000.0]\nremoval_trials = true\n[output]\ndir = \"out\"\n",
         cwru("097_normal_0hp_48k.mat").display().to_string()
     );
     std::fs::write(&job, text).unwrap();
@@ -448,4 +456,6 @@ fn a_batch_loop_compares_a_faster_record_at_the_models_rate() {
     assert_eq!(l["compared_at_hz"], serde_json::json!(12000.0), "{l}");
     let saved: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(l["json"].as_str().unwrap()).unwrap()).unwrap();
     assert_eq!(saved["compared_at_hz"], serde_json::json!(12000.0));
+    // `removal_trials = true`: the last diagnosis holds the load zone's removal trial.
+    assert_eq!(saved["diagnosis"]["removals"][0]["part"], serde_json::json!({ "effect": "load_zone" }), "{}", saved["diagnosis"]);
 }
