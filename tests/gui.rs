@@ -709,6 +709,45 @@ fn model_loop_shows_the_strength_range_of_the_chosen_effect() {
     assert!(shown[0].contains("effects.gear_mesh.variation_fraction = 7.220e-1") && shown[0].contains("4.000e-1") && shown[0].contains("8.000e-1") && shown[0].contains("lowest objective at 6.460e-1"), "{}", shown[0]);
 }
 
+/// Removal trials in the app: the setting switches `LoopOptions::removal_trials` on; a
+/// diagnosis that holds them lists each part with its reading, and a contradicted part gets
+/// a button that takes it out of the machine.
+#[test]
+fn model_loop_lists_the_removal_trials_and_takes_out_a_contradicted_fault() {
+    use twinscope::compare::removal::{ModelPart, RemovalReading, RemovalTrial};
+    use twinscope::compare::{Diagnosis, Fit, LoopOptions};
+    use twinscope::gui::session::LoopResult;
+    let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::Slip]);
+    assert!(!h.state().settings.loop_options(Default::default()).removal_trials, "off by default");
+    h.get_by_label("Search settings").click();
+    h.run_steps(2);
+    h.get_by_label("removal trials: each fault and effect of the model taken out in turn, the rest calibrated again").click_accesskit();
+    h.run_steps(3);
+    assert!(h.state().settings.loop_options(Default::default()).removal_trials);
+    let m = h.state().session.model.machine.clone();
+    assert!(m.bearings[0].fault.is_some());
+    let name = h.state().session.signals[0].signal.name.clone();
+    {
+        let fault = ModelPart::Fault { bearing: m.bearings[0].name.clone() };
+        let trial = |part: ModelPart, reading: RemovalReading, summary: &str| RemovalTrial { label: part.label(&m), part, objective_with: 31.65, objective_without: 29.02, envelope_nrmse_with: 21.0, envelope_nrmse_without: 19.6, floor_objective: 21.43, tie_width: 2.3, realisations: 4, explained: 0.26, reading, calibration: Fit::default(), summary: summary.into() };
+        let removals = vec![
+            trial(fault, RemovalReading::Contradicted, "the measurement does not support the inner-race fault of bearing de: ..."),
+            trial(ModelPart::Effect(twinscope::model::EffectKind::NonlinearContact), RemovalReading::CannotTell, "the data cannot tell whether nonlinear_contact is there: ..."),
+        ];
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 31.65, ..Default::default() }, floor_objective: 21.43, verdict: "nothing significant is missing (...)".into(), removals, ..Default::default() };
+        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None });
+    }
+    h.run_steps(3);
+    assert_eq!(labels_containing(&h, "contradicted: the measurement does not support the inner-race fault").len(), 1);
+    assert_eq!(labels_containing(&h, "cannot tell: the data cannot tell whether nonlinear_contact").len(), 1);
+    assert!(h.query_by_label("Take out nonlinear_contact").is_none(), "only a contradicted part gets the button");
+    h.get_by_label("Take out the inner-race fault of bearing de").click();
+    h.run_steps(3);
+    let after = &h.state().session.model.machine;
+    assert!(after.bearings[0].fault.is_none(), "the fault taken out");
+    assert_eq!(after.effects, m.effects, "nothing else changed");
+}
+
 /// The evidence list says which trial's best fit started from the uncalibrated values (the
 /// second start of unbending or of `LoopOptions::uncalibrated_start`), and which force ended
 /// lower from the fine grid's cell (`LoopOptions::fine_force_scan`), and no more.

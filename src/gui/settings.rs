@@ -71,6 +71,9 @@ pub struct Settings {
     /// Model loop: the chosen effect's strength gets the range the data cannot tell from it
     /// (`LoopOptions::strength_range`, off by default).
     pub loop_strength_range: bool,
+    /// Model loop: after the search, each part of the starting model is taken out and the rest
+    /// calibrated again (`LoopOptions::removal_trials`, off by default).
+    pub loop_removal_trials: bool,
     /// Model loop: the best three stage-1 trials also start from the uncalibrated values
     /// before stage 2 (`LoopOptions::uncalibrated_start_top`, on by default since session 48).
     pub loop_uncalibrated_start_top: bool,
@@ -137,6 +140,7 @@ impl Default for Settings {
             loop_unbend_when_stuck: LoopOptions::default().unbend_when_stuck,
             loop_unbend_when_short: LoopOptions::default().unbend_when_short,
             loop_strength_range: LoopOptions::default().strength_range,
+            loop_removal_trials: LoopOptions::default().removal_trials,
             loop_uncalibrated_start_top: LoopOptions::default().uncalibrated_start_top,
             loop_fine_forces: LoopOptions::default().fine_forces,
             loop_fine_force_scan: LoopOptions::default().fine_force_scan,
@@ -212,6 +216,7 @@ impl Settings {
             unbend_when_stuck: self.loop_unbend_when_stuck,
             unbend_when_short: self.loop_unbend_when_short,
             strength_range: self.loop_strength_range,
+            removal_trials: self.loop_removal_trials,
             uncalibrated_start_top: self.loop_uncalibrated_start_top,
             fine_forces: self.loop_fine_forces,
             fine_force_scan: self.loop_fine_force_scan,
@@ -286,6 +291,7 @@ mod tests {
             loop_unbend_when_stuck: false,
             loop_unbend_when_short: true,
             loop_strength_range: true,
+            loop_removal_trials: true,
             loop_uncalibrated_start_top: false,
             loop_fine_forces: false,
             loop_fine_force_scan: true,
