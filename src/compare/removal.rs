@@ -241,7 +241,8 @@ pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, pr
             let (j, env) = (w.objective, w.envelope_nrmse);
             let gain = j0 - j;
             let explained = if excess > 0.0 { gain / excess } else { f64::NAN };
-            let reading = if gain >= tie && !(explained < opts.significance) {
+            // At or under the floor (no share to take), a gain beyond the tie width is enough.
+            let reading = if gain >= tie && (explained.is_nan() || explained >= opts.significance) {
                 RemovalReading::Contradicted
             } else if -gain >= tie {
                 RemovalReading::Needed
