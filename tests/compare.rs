@@ -97,6 +97,7 @@ fn a_measurement_sampled_faster_is_compared_at_the_simulated_rate() {
     assert!(matches!(at_most_rate(&slow, 16384.0).unwrap(), std::borrow::Cow::Borrowed(_)));
     let down = at_most_rate(&fast, 12000.0).unwrap();
     assert_eq!((down.fs_hz, down.len(), down.meta.shaft_speed_hz, down.unit.as_str()), (12000.0, 24000, Some(29.95), "g"));
+    assert_eq!((twinscope::compare::resampled_from_hz(&down), twinscope::compare::resampled_from_hz(&slow)), (Some(48000.0), None), "a resampled record says where it came from");
     assert!(at_most_rate(&slow, 0.0).unwrap_err().to_string().contains("fs_hz"));
 }
 
@@ -114,6 +115,13 @@ fn the_loop_compares_a_faster_measurement_at_the_models_rate() {
     let c_down = final_comparison(&m, &at_most_rate(&fast, 12000.0).unwrap(), &opts).unwrap();
     assert_eq!(c.alignment.fs_hz, 12000.0);
     assert_eq!(c, c_down);
+    // A loop round (`run_loop`, as `diagnose` and the batch call it) resamples the record
+    // itself, and its diagnosis says at which rate it compared, and from which.
+    let quick = LoopOptions { fit_duration_s: 0.4, evaluations_per_parameter: 3, sweeps: 1, polish_sweeps: 0, candidates: vec![twinscope::model::EffectKind::Slip], random_effect_realisations: 0, unbend_when_stuck: false, ..opts };
+    let (_, history, last) = twinscope::compare::run_loop(&m, &fast, 1, &quick, &|_, _| true).unwrap();
+    assert_eq!(history.len(), 1);
+    assert_eq!((last.compared_at_hz, last.measured_resampled_from_hz), (12000.0, Some(48000.0)));
+    assert_eq!(last.rate_in_words(), "12000 Hz (the measurement resampled from 48000 Hz)");
 }
 
 #[test]

@@ -709,6 +709,23 @@ fn model_loop_shows_the_strength_range_of_the_chosen_effect() {
     assert!(shown[0].contains("effects.gear_mesh.variation_fraction = 7.220e-1") && shown[0].contains("4.000e-1") && shown[0].contains("8.000e-1") && shown[0].contains("lowest objective at 6.460e-1"), "{}", shown[0]);
 }
 
+/// A ranking whose measurement was resampled down to the model's rate says so in its header;
+/// one compared at the measurement's own rate does not.
+#[test]
+fn model_loop_names_the_rate_a_faster_measurement_was_compared_at() {
+    use twinscope::compare::{Diagnosis, Fit, LoopOptions};
+    use twinscope::gui::session::LoopResult;
+    let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::Slip]);
+    let m = h.state().session.model.machine.clone();
+    let name = h.state().session.signals[0].signal.name.clone();
+    for (from, shown) in [(Some(48000.0), 1), (None, 0)] {
+        let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, verdict: "nothing significant is missing (...)".into(), compared_at_hz: 12000.0, measured_resampled_from_hz: from, ..Default::default() };
+        h.state_mut().session.model.result = Some(LoopResult { measured: name.clone(), options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None });
+        h.run_steps(3);
+        assert_eq!(labels_containing(&h, "compared at 12000 Hz (the measurement resampled from 48000 Hz)").len(), shown, "resampled from {from:?}");
+    }
+}
+
 /// Removal trials in the app: the setting switches `LoopOptions::removal_trials` on; a
 /// diagnosis that holds them lists each part with its reading, and a contradicted part gets
 /// a button that takes it out of the machine.

@@ -283,6 +283,14 @@ pub struct Diagnosis {
     /// measurement says of it ([`super::removal`]). Empty otherwise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub removals: Vec<super::removal::RemovalTrial>,
+    /// The sampling rate the measurement was compared at, Hz (the model's when the
+    /// measurement was sampled faster: [`super::at_most_rate`]); 0 in an old JSON.
+    #[serde(default)]
+    pub compared_at_hz: f64,
+    /// The measurement's own rate, Hz, when it was resampled down to `compared_at_hz`
+    /// ([`super::resampled_from_hz`]); None when it was compared at its own rate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured_resampled_from_hz: Option<f64>,
 }
 
 /// A diagnosis redone with several realisations because a random effect led it with one
@@ -315,6 +323,12 @@ impl Diagnosis {
     /// Compare trials' `objective_after` with this one, not with the calibration's.
     pub fn judged_objective(&self) -> f64 {
         self.held_out_objective.unwrap_or(self.calibration.objective_after)
+    }
+
+    /// The rate compared at in words: "12000 Hz (the measurement resampled from 48000 Hz)".
+    pub fn rate_in_words(&self) -> String {
+        let from = self.measured_resampled_from_hz.map(|hz| format!(" (the measurement resampled from {hz:.0} Hz)")).unwrap_or_default();
+        format!("{:.0} Hz{from}", self.compared_at_hz)
     }
 
     /// The calibrated model's envelope NRMSE (%), None when the envelope was not compared.
@@ -1492,7 +1506,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let near_floor_lead = named_lead(&trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead, joint_trials: Vec::new(), removals: Vec::new() }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead, joint_trials: Vec::new(), removals: Vec::new(), compared_at_hz: measured.measured().fs_hz, measured_resampled_from_hz: super::resampled_from_hz(measured.measured()) }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before

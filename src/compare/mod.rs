@@ -228,10 +228,21 @@ impl Comparison {
 /// have, and the loop would fit noise levels and effects to them (CWRU's healthy record 097,
 /// sampled at 48 kHz, against the 12 kHz 6205 model: a load zone claimed, where at 12 kHz
 /// nothing is missing; docs/loop-notebook.md "Session 72"). [`compare`], [`diagnose`],
-/// [`run_loop`] and the loop's other entry points call it with the model's rate.
+/// [`run_loop`] and the loop's other entry points call it with the model's rate. A resampled
+/// signal records the rate it came from ([`resampled_from_hz`]), which a
+/// [`Diagnosis`](diagnose::Diagnosis) reports.
 ///
 /// # Errors
 /// [`CompareError::Dsp`] when the record cannot be resampled (too short, not finite).
+/// The key of `meta.extra` where [`at_most_rate`] records the rate, Hz, a measurement was
+/// resampled from (its `fs_source` still says where that first rate came from).
+pub const RESAMPLED_FROM_KEY: &str = "resampled_from_hz";
+
+/// The rate `s` was resampled from by [`at_most_rate`], Hz; None when it was not.
+pub fn resampled_from_hz(s: &Signal) -> Option<f64> {
+    s.meta.extra.get(RESAMPLED_FROM_KEY)?.parse().ok()
+}
+
 pub fn at_most_rate(measured: &Signal, fs_hz: f64) -> Result<std::borrow::Cow<'_, Signal>, CompareError> {
     if !(fs_hz.is_finite() && fs_hz > 0.0) {
         return Err(CompareError::Parameter { name: "fs_hz", reason: format!("{fs_hz}: the rate to compare at must be a positive frequency") });
@@ -240,7 +251,9 @@ pub fn at_most_rate(measured: &Signal, fs_hz: f64) -> Result<std::borrow::Cow<'_
         return Ok(std::borrow::Cow::Borrowed(measured));
     }
     let samples = dsp::resample::resample(&measured.samples, measured.fs_hz, fs_hz).map_err(|e| CompareError::Dsp { domain: "resampling the measurement".into(), message: e.to_string() })?;
-    Ok(std::borrow::Cow::Owned(Signal { samples, fs_hz, name: measured.name.clone(), unit: measured.unit.clone(), meta: measured.meta.clone() }))
+    let mut meta = measured.meta.clone();
+    meta.extra.entry(RESAMPLED_FROM_KEY.into()).or_insert_with(|| format!("{}", measured.fs_hz));
+    Ok(std::borrow::Cow::Owned(Signal { samples, fs_hz, name: measured.name.clone(), unit: measured.unit.clone(), meta }))
 }
 
 /// Brings `simulated` onto `measured`'s unit, sampling rate and length; refuses what cannot be

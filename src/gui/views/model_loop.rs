@@ -292,6 +292,9 @@ impl ModelLoopView {
             d.floor_objective
         ))
         .on_hover_text("the envelopes are compared in the chain's bandpass stage (Compare → Band from kurtogram sets it from the measurement); the floor is the model's objective against realisations of itself");
+        if d.measured_resampled_from_hz.is_some() {
+            ui.weak(format!("compared at {}", d.rate_in_words())).on_hover_text("a measurement sampled faster than the model is brought down to the model's rate (the Fourier method) before anything is compared: the model holds nothing above its own Nyquist frequency");
+        }
         if d.floor_objective == 0.0 {
             ui.add(egui::Label::new(RichText::new(format!("Note: {}", drawable(crate::compare::diagnose::ZERO_FLOOR_NOTE))).color(ui.visuals().warn_fg_color)).wrap());
             let machine = &session.model.machine;
