@@ -540,7 +540,7 @@ fn main() {
     let mut command = <Cli as clap::CommandFactory>::command();
     let matches = command.get_matches_mut();
     let cli = <Cli as clap::FromArgMatches>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
-    if let Err(e) = run(cli, (&command, &matches)) {
+    if let Err(e) = run(cli, &command, &matches) {
         // One line, naming what was wrong; no backtrace, no panic.
         let msg = format!("{e:#}").replace('\n', " ");
         eprintln!("twinscope: error: {msg}");
@@ -576,7 +576,7 @@ fn search_words(cli: &clap::Command, matches: &clap::ArgMatches) -> Vec<String> 
     words
 }
 
-fn run(cli: Cli, (command, matches): (&clap::Command, &clap::ArgMatches)) -> Result<()> {
+fn run(cli: Cli, command: &clap::Command, matches: &clap::ArgMatches) -> Result<()> {
     if let Some(job) = &cli.batch {
         return run_batch(job, cli.out.as_deref(), cli.quiet);
     }

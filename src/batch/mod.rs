@@ -172,7 +172,7 @@ fn run_one(job: &Job, chain: &crate::chain::Chain, model_loop: Option<&ModelLoop
             true
         })
         .map_err(|e| BatchError::Loop { input: name.clone(), message: e.to_string() })?;
-        summary.model_loop = Some(output::write_loop(dir, &history, &last, &final_m, (opts.compare.envelope_band_hz, signal.fs_hz))?);
+        summary.model_loop = Some(output::write_loop(dir, &history, &last, &final_m, opts.compare.envelope_band_hz)?);
     }
     output::write_json(&dir.join("summary.json"), &summary)?;
     Ok(summary)

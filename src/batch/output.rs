@@ -91,7 +91,8 @@ pub struct LoopReport {
 }
 
 /// Writes the loop's outputs into `dir`.
-pub(super) fn write_loop(dir: &Path, history: &[crate::compare::Round], last: &crate::compare::Diagnosis, final_machine: &crate::model::Machine, (demodulation_band_hz, compared_at_hz): ([f64; 2], f64)) -> Result<LoopReport, BatchError> {
+pub(super) fn write_loop(dir: &Path, history: &[crate::compare::Round], last: &crate::compare::Diagnosis, final_machine: &crate::model::Machine, demodulation_band_hz: [f64; 2]) -> Result<LoopReport, BatchError> {
+    let compared_at_hz = last.compared_at_hz;
     let json = dir.join("model_loop.json");
     write_json(&json, &serde_json::json!({ "history": history, "diagnosis": last, "final_machine": final_machine, "demodulation_band_hz": demodulation_band_hz, "compared_at_hz": compared_at_hz }))?;
     let csv_path = dir.join("model_loop_history.csv");

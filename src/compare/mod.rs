@@ -169,11 +169,12 @@ pub struct Alignment {
     /// Common sampling rate, Hz: the lower of the two signals' ([`compare`]), or the
     /// measurement's when the simulated signal is compared with it as it is ([`align`]).
     pub fs_hz: f64,
-    /// Whether the simulated signal was resampled.
+    /// The simulated signal's own rate when it was resampled to `fs_hz`; `None` (JSON null)
+    /// when compared at its own.
     pub resampled_from_hz: Option<f64>,
     /// The measurement's own rate when it was brought down to the simulated signal's
-    /// ([`at_most_rate`]); `None` when compared at its own.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// ([`at_most_rate`]); `None` (JSON null, as `resampled_from_hz`) when compared at its own.
+    #[serde(default)]
     pub measured_resampled_from_hz: Option<f64>,
     /// Factor applied to the simulated signal's unit (e.g. 1/9.80665 for m/s² → g).
     pub unit_factor: f64,

@@ -191,7 +191,7 @@ pub struct Kurtogram {
 impl Kurtogram {
     /// The allowed bands ([`KurtogramParams`]) of every level, largest spectral kurtosis first.
     pub fn ranked_bands(&self, fs_hz: f64, p: &KurtogramParams) -> Vec<KurtogramBand> {
-        ranked_bands(&self.levels, fs_hz, p)
+        rank_level_bands(&self.levels, fs_hz, p)
     }
 
     /// The largest spectral kurtosis of any allowed band overlapping `band_hz` (None when no
@@ -202,7 +202,7 @@ impl Kurtogram {
 }
 
 /// The allowed bands of `levels`, largest spectral kurtosis first.
-fn ranked_bands(levels: &[KurtogramLevel], fs_hz: f64, p: &KurtogramParams) -> Vec<KurtogramBand> {
+fn rank_level_bands(levels: &[KurtogramLevel], fs_hz: f64, p: &KurtogramParams) -> Vec<KurtogramBand> {
     let mut v: Vec<KurtogramBand> = levels.iter().flat_map(|l| level_bands(l, fs_hz, p)).collect();
     v.sort_by(|a, b| b.sk.total_cmp(&a.sk));
     v
@@ -274,7 +274,7 @@ pub fn kurtogram(x: &[f64], fs_hz: f64, p: &KurtogramParams) -> Result<Kurtogram
             spectral_kurtosis(x, fs_hz, &sp).map(|sk| KurtogramLevel { nperseg: n, band_width_hz: 2.0 * fs_hz / n as f64, frames: sp.frames(x.len()), sk })
         })
         .collect::<Result<_, _>>()?;
-    let best = ranked_bands(&levels, fs_hz, p).into_iter().next().ok_or_else(|| DspError::InvalidParameter {
+    let best = rank_level_bands(&levels, fs_hz, p).into_iter().next().ok_or_else(|| DspError::InvalidParameter {
         name: "min_band_width_hz",
         value: p.min_band_width_hz.to_string(),
         reason: format!(
