@@ -23,10 +23,9 @@ fn noise(n: usize, seed: u64) -> Vec<f64> {
 fn matches_scipy_stft_fixtures() {
     let x = read_column("x.csv");
     assert_eq!(x.len(), 8192);
-    let cases = std::fs::read_to_string(format!("{FIX}sk_cases.csv")).unwrap();
     let mut n_cases = 0;
-    for line in cases.lines().skip(1) {
-        let f: Vec<&str> = line.split(',').collect();
+    for row in common::read_fixture_table(&format!("{FIX}sk_cases.csv")) {
+        let f: Vec<&str> = row.iter().map(String::as_str).collect();
         let nov: i64 = f[3].parse().unwrap();
         let p = SpectralKurtosisParams { window: Window::parse(f[1]).unwrap(), nperseg: f[2].parse().unwrap(), noverlap: (nov >= 0).then_some(nov as usize) };
         let sk = spectral_kurtosis(&x, FS, &p).unwrap();

@@ -17,8 +17,7 @@ fn read_column(name: &str) -> Vec<f64> {
 fn matches_scipy_resample_fixtures() {
     let x = read_column("x.csv");
     assert_eq!(x.len(), 4801);
-    let cases = std::fs::read_to_string(format!("{FIX}cases.csv")).unwrap();
-    let rows: Vec<Vec<f64>> = cases.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    let rows: Vec<Vec<f64>> = common::read_fixture_table(&format!("{FIX}cases.csv")).into_iter().map(|r| r.iter().map(|v| v.parse().unwrap()).collect()).collect();
     assert_eq!(rows.len(), 7);
     for row in rows {
         let [id, n_in, fs_in, fs_out, n_out] = row[..] else { panic!("{row:?}") };

@@ -19,10 +19,9 @@ fn read_column(name: &str) -> Vec<f64> {
 fn matches_scipy_welch_fixtures() {
     let x = read_column("x.csv");
     assert_eq!(x.len(), 4096);
-    let cases = std::fs::read_to_string(format!("{FIX}welch_cases.csv")).unwrap();
     let mut n_cases = 0;
-    for line in cases.lines().skip(1) {
-        let f: Vec<&str> = line.split(',').collect();
+    for row in common::read_fixture_table(&format!("{FIX}welch_cases.csv")) {
+        let f: Vec<&str> = row.iter().map(String::as_str).collect();
         let opt = |s: &str| -> Option<usize> {
             let v: i64 = s.parse().unwrap();
             (v >= 0).then_some(v as usize)

@@ -71,6 +71,13 @@ pub fn read_fixture_rows(path: &str) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// A fixture table of comma-separated fields under one header line (blank lines skipped): the
+/// rows without the header, each field trimmed.
+pub fn read_fixture_table(path: &str) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("fixture {path}: {e}"));
+    text.lines().skip(1).filter(|l| !l.trim().is_empty()).map(|l| l.split(',').map(|v| v.trim().to_string()).collect()).collect()
+}
+
 /// A fixture file of one number per line (blank lines skipped).
 pub fn read_fixture_column(path: &str) -> Vec<f64> {
     read_fixture_rows(path)
