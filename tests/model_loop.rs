@@ -220,7 +220,43 @@ fn removal_trials_contradict_a_fault_the_measurement_lacks_and_need_one_it_has()
         assert_eq!(calls, expected);
         let (_, plain) = twinscope::compare::diagnose(&faulted, &measured, &LoopOptions { removal_trials: false, ..opts.clone() }, &|_, _| true).unwrap();
         assert_eq!(plain, twinscope::compare::Diagnosis { removals: Vec::new(), ..d }, "the option adds the removal trials and changes nothing else");
+        // A loop takes the contradicted fault out after its first round and goes on from the
+        // machine without it, where nothing is contradicted; with nothing contradicted it
+        // takes nothing out.
+        let (fin, history, last) = run_loop(&faulted, &measured, 3, &opts, &|_, _| true).unwrap();
+        let changes: Vec<String> = history.iter().map(|r| r.change_with_values("-")).collect();
+        if fault_reads == RemovalReading::Contradicted {
+            assert_eq!(history[0].taken_out.as_ref().map(|t| &t.part), Some(&fault), "{changes:?}");
+            assert_eq!(changes[0], "took out the inner-race fault of bearing de");
+            assert!(history.len() >= 2 && fin.bearings[0].fault.is_none(), "{changes:?}");
+            assert!(last.removals.iter().all(|r| r.reading != RemovalReading::Contradicted), "{:?}", last.removals.iter().map(|r| &r.summary).collect::<Vec<_>>());
+        } else {
+            assert!(history.iter().all(|r| r.taken_out.is_none()), "{changes:?}");
+            assert!(fin.bearings[0].fault.is_some());
+        }
     }
+}
+
+/// A model that holds no vibration but its noise (the inner-race preset without its fault: no
+/// load zone, every ball on the same preload) has no part to judge: its removal trials read
+/// "cannot tell", saying why, and make no evaluation; the healthy preset, whose load zone
+/// carries the rotor's weight, is not silent.
+#[test]
+fn a_silent_model_has_no_part_to_judge() {
+    use twinscope::compare::removal::{silent, RemovalReading};
+    let (mut m, measured, mut opts) = quick_case(5, vec![EffectKind::Slip]);
+    m.bearings[0].fault = None;
+    opts.removal_trials = true;
+    let reference = Reference::new(&measured, &opts.compare).unwrap();
+    let (model_rms, measured_rms) = silent(&m, &reference, &opts).unwrap().expect("silent");
+    assert!(model_rms < 1e-12 && measured_rms > 1e-3, "{model_rms:e} against {measured_rms:e}");
+    let mut healthy = model::preset("cwru_6205_healthy").unwrap();
+    healthy.effects.enable(EffectKind::Noise);
+    assert_eq!(silent(&healthy, &reference, &opts).unwrap(), None);
+    let (d, calls, expected) = diagnose_counting(&m, &measured, &opts);
+    assert_eq!(d.removals.len(), 1, "its contact nonlinearity");
+    assert!(d.removals.iter().all(|r| r.reading == RemovalReading::CannotTell && r.summary.contains("no vibration but its noise")), "{:?}", d.removals[0].summary);
+    assert_eq!(calls, expected, "no evaluation expected that is not made");
 }
 
 /// Diagnoses, counting the progress calls: (diagnosis, calls made, the last expected total).

@@ -101,7 +101,7 @@ pub(super) fn write_loop(dir: &Path, history: &[crate::compare::Round], last: &c
     w.write_record(["round", "effects_on", "envelope_nrmse_percent", "objective", "floor_objective", "objective_scatter", "applied", "applied_values", "removed", "pinned", "unbent_when_stuck", "verdict"]).map_err(|e| werr(e.to_string()))?;
     for r in history {
         let on = r.effects_on.iter().map(|k| k.name()).collect::<Vec<_>>().join(" ");
-        w.write_record([r.round.to_string(), on, format!("{:.4}", r.envelope_nrmse), format!("{:.4}", r.objective), format!("{:.4}", r.floor_objective), format!("{:.4}", r.objective_scatter), r.applied_label().unwrap_or_default(), crate::compare::diagnose::effect_values_text(&r.applied_values), r.removed.map(|k| k.name()).unwrap_or("").to_string(), r.pinned.iter().map(|p| p.name()).collect::<Vec<_>>().join(" "), r.unbent_when_stuck.to_string(), r.verdict.clone()]).map_err(|e| werr(e.to_string()))?;
+        w.write_record([r.round.to_string(), on, format!("{:.4}", r.envelope_nrmse), format!("{:.4}", r.objective), format!("{:.4}", r.floor_objective), format!("{:.4}", r.objective_scatter), r.applied_label().unwrap_or_default(), crate::compare::diagnose::effect_values_text(&r.applied_values), r.removed.map(|k| k.name().to_string()).or_else(|| r.taken_out.as_ref().map(|t| t.label.clone())).unwrap_or_default(), r.pinned.iter().map(|p| p.name()).collect::<Vec<_>>().join(" "), r.unbent_when_stuck.to_string(), r.verdict.clone()]).map_err(|e| werr(e.to_string()))?;
     }
     w.flush().map_err(|e| werr(e.to_string()))?;
     let toml_path = dir.join("model_loop_final_machine.toml");

@@ -842,7 +842,6 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     let (cal, mut d) = answer(cal, d, reference, opts, progress)?;
     if opts.removal_trials {
         let judged = super::removal::removal_options(opts);
-        progress.expect(super::removal::removal_trial_evaluations(m, &judged));
         d.removals = super::removal::removal_trials(m, reference, &judged, progress)?;
     }
     Ok((cal, d))
@@ -1709,6 +1708,11 @@ pub struct Round {
     /// diagnosis chose ([`Diagnosis::strength_range`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strength_range: Option<super::strength_range::StrengthRange>,
+    /// With `LoopOptions::removal_trials`: the part of the model the round took out, its
+    /// removal trial contradicted by the measurement ([`super::removal::most_contradicted`]);
+    /// the next round starts from the round's machine without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub taken_out: Option<super::removal::TakenOut>,
 }
 
 impl Round {
@@ -1774,7 +1778,9 @@ impl Round {
     /// [`change`](Self::change) with the applied effect's values, e.g.
     /// `casing_modes (frequency_hz = 3.37e3) in place of sensor_response`.
     pub fn change_with_values(&self, none: &str) -> String {
-        let Some(b) = self.applied else { return none.to_string() };
+        let Some(b) = self.applied else {
+            return self.taken_out.as_ref().map_or_else(|| none.to_string(), |t| format!("took out {}", t.label));
+        };
         let values = effect_values_text(&self.applied_values);
         let name = self.applied_label().unwrap_or_default();
         let added = if values.is_empty() { name } else { format!("{name} ({values})") };
@@ -2149,6 +2155,13 @@ pub fn check_loop_rounds(n: usize) -> Result<(), super::CompareError> {
 /// result judged as a replacement of the effect by itself; the best kept one goes on, recorded
 /// with `removed == applied`.
 ///
+/// **Taking out** ([`LoopOptions::removal_trials`]). A round that adds nothing and whose
+/// removal trials contradict a part of its model ([`super::removal`]) takes out the most
+/// contradicted one, before any replacement, when a round is left: the next round starts from
+/// the round's uncalibrated machine without it (the model its removal trial calibrated),
+/// recorded as [`Round::taken_out`]. A kept replacement's diagnosis, made while judging it, has
+/// no removal trials.
+///
 /// With [`LoopOptions::unbend_when_stuck`] the round's own diagnosis may be searched again
 /// unbent (see [`diagnose_with`]); the replacement and re-fit diagnoses of a stuck round are
 /// searched plainly ([`searched_plainly`]), so a stuck round pays one unbent search, not one
@@ -2196,6 +2209,19 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             current = next;
             last = Some(d);
             continue;
+        }
+        // A part of the model the measurement contradicts is taken out before any replacement:
+        // the next round starts from the round's machine without it.
+        if let Some(t) = super::removal::most_contradicted(&d.removals).filter(|_| r < rounds) {
+            if let Ok(next) = t.part.removed_from(&current) {
+                round.taken_out = Some(super::removal::TakenOut { part: t.part.clone(), label: t.label.clone(), explained: t.explained });
+                round.verdict = format!("{}; took out {}: {}", d.verdict, t.label, t.summary);
+                opts.refit_effects.retain(|k| next.effects.is_on(*k));
+                history.push(round);
+                current = next;
+                last = Some(d);
+                continue;
+            }
         }
         if r < rounds && stuck(&d, &opts) {
             let mut kept: Option<(ReplacementJudgement, Replacement)> = None;
