@@ -280,6 +280,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         // session 48; on 105 it acts in the first, stuck search and never wins).
         let opts = LoopOptions { candidates: all.clone(), uncalibrated_start_top: false, ..Default::default() };
         search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, without the second start for the top trials (--no-uncalibrated-start-top)", meas.duration_s(), all.len()))?;
+        // The same full search followed by the removal trials (`LoopOptions::removal_trials`):
+        // the preset's fault and contact nonlinearity taken out in turn, three calibrations on
+        // four realisations.
+        let opts = LoopOptions { candidates: all.clone(), removal_trials: true, ..Default::default() };
+        search_row(opts, format!("missing-effect search, {:.0}-s CWRU record, {} candidate effects, then its removal trials (--removal-trials)", meas.duration_s(), all.len()))?;
         // The same full search with the transfer-path correction (16 bands) fitted to every
         // evaluation: one more Welch PSD and one FFT filter per evaluation.
         let mut opts = LoopOptions { candidates: all.clone(), ..Default::default() };
