@@ -240,8 +240,8 @@ fn calibrated_and_judged(m: &Machine, reference: &Reference, opts: &LoopOptions,
 /// The removal trials of the round's starting (uncalibrated) model `m` against `reference`,
 /// with the options `opts` ([`removal_options`]): `m` and `m` without each part of
 /// [`removable_parts`] calibrated as a round's model is and judged on held-out realisations,
-/// in parallel. A part whose removal leaves an invalid machine is left out (none of the
-/// presets has one). Its evaluations ([`removal_trial_evaluations`]) are added to `progress`'s
+/// in parallel. A part whose removal leaves an invalid machine (none of the presets has one),
+/// or whose model's calibration fails, reads "cannot tell" with the reason. Its evaluations ([`removal_trial_evaluations`]) are added to `progress`'s
 /// total here.
 ///
 /// A starting model that holds no vibration but its noise ([`silent`]) has no part to judge:
@@ -250,25 +250,37 @@ fn calibrated_and_judged(m: &Machine, reference: &Reference, opts: &LoopOptions,
 /// 29.02 → 26.24). Each part then reads [`RemovalReading::CannotTell`], saying why, and no
 /// calibration is made.
 pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<Vec<RemovalTrial>, LoopError> {
-    let parts: Vec<(ModelPart, Machine)> = removable_parts(m).into_iter().filter_map(|p| p.removed_from(m).ok().map(|w| (p, w))).collect();
+    let parts: Vec<(ModelPart, Result<Machine, String>)> = removable_parts(m).into_iter().map(|p| {
+        let w = p.removed_from(m).map_err(|e| format!("the machine without it is not valid: {e}"));
+        (p, w)
+    }).collect();
     if parts.is_empty() {
         return Ok(Vec::new());
     }
     if let Some((model_rms, measured_rms)) = silent(m, reference, opts)? {
         let unit = &reference.measured().unit;
-        return Ok(parts
-            .into_iter()
-            .map(|(part, _)| {
-                let label = part.label(m);
-                let summary = format!("the data cannot tell whether {label} is there: the model holds no vibration but its noise (rms {model_rms:.1e} {unit} without its noise, against the measurement's {measured_rms:.2e} {unit}), so no part of it can be judged");
-                RemovalTrial { part, label, objective_with: f64::NAN, objective_without: f64::NAN, envelope_nrmse_with: f64::NAN, envelope_nrmse_without: f64::NAN, floor_objective: f64::NAN, tie_width: f64::NAN, realisations: opts.realisations, explained: f64::NAN, reading: RemovalReading::CannotTell, calibration: Fit::default(), summary }
-            })
-            .collect());
+        let why = format!("the model holds no vibration but its noise (rms {model_rms:.1e} {unit} without its noise, against the measurement's {measured_rms:.2e} {unit}), so no part of it can be judged");
+        return Ok(parts.into_iter().map(|(part, _)| not_judged(part, m, &why, opts)).collect());
     }
     progress.expect(removal_trial_evaluations(m, opts));
-    let models: Vec<(&Machine, bool)> = std::iter::once((m, true)).chain(parts.iter().map(|(_, w)| (w, false))).collect();
-    let judged: Vec<Judged> = models.into_par_iter().map(|(w, with_floor)| calibrated_and_judged(w, reference, opts, with_floor, progress)).collect::<Result<_, _>>()?;
-    let (with, without) = judged.split_first().expect("the model with every part comes first");
+    // The model with every part is the round's own: its failure is the round's. A part whose
+    // model is invalid or whose calibration fails is reported with the reason.
+    let (with, without): (_, Vec<Result<Judged, String>>) = rayon::join(
+        || calibrated_and_judged(m, reference, opts, true, progress),
+        || {
+            parts
+                .par_iter()
+                .map(|(_, w)| match w {
+                    Ok(w) => calibrated_and_judged(w, reference, opts, false, progress).map_err(|e| format!("its calibration failed: {e}")),
+                    Err(why) => Err(why.clone()),
+                })
+                .collect()
+        },
+    );
+    if progress.is_cancelled() {
+        return Err(LoopError::Cancelled);
+    }
+    let with = with?;
     let (j0, env0) = (with.objective, with.envelope_nrmse);
     let floor = with.floor.unwrap_or(f64::NAN);
     let excess = j0 - floor;
@@ -276,6 +288,10 @@ pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, pr
         .into_iter()
         .zip(without)
         .map(|((part, _), w)| {
+            let w = match w {
+                Ok(w) => w,
+                Err(why) => return not_judged(part, m, &why, opts),
+            };
             let tie = tie_width(with.scatter.max(w.scatter));
             let (j, env) = (w.objective, w.envelope_nrmse);
             let gain = j0 - j;
@@ -297,9 +313,16 @@ pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, pr
                 RemovalReading::Needed => format!("{label} is needed: calibrated without it the objective rises from {j0:.2} to {j:.2} (tie width ±{tie:.2}; envelope NRMSE {env0:.1} → {env:.1} %)"),
                 RemovalReading::CannotTell => format!("the data cannot tell whether {label} is there: calibrated without it the objective is {j:.2} against {j0:.2} (tie width ±{tie:.2}, floor {floor:.2}; envelope NRMSE {env0:.1} → {env:.1} %)"),
             };
-            RemovalTrial { part, label, objective_with: j0, objective_without: j, envelope_nrmse_with: env0, envelope_nrmse_without: env, floor_objective: floor, tie_width: tie, realisations: opts.realisations, explained, reading, calibration: w.fit.clone(), summary }
+            RemovalTrial { part, label, objective_with: j0, objective_without: j, envelope_nrmse_with: env0, envelope_nrmse_without: env, floor_objective: floor, tie_width: tie, realisations: opts.realisations, explained, reading, calibration: w.fit, summary }
         })
         .collect())
+}
+
+/// The trial of a part that was not judged, `why` saying why: "cannot tell", every number NaN.
+fn not_judged(part: ModelPart, m: &Machine, why: &str, opts: &LoopOptions) -> RemovalTrial {
+    let label = part.label(m);
+    let summary = format!("the data cannot tell whether {label} is there: {why}");
+    RemovalTrial { part, label, objective_with: f64::NAN, objective_without: f64::NAN, envelope_nrmse_with: f64::NAN, envelope_nrmse_without: f64::NAN, floor_objective: f64::NAN, tie_width: f64::NAN, realisations: opts.realisations, explained: f64::NAN, reading: RemovalReading::CannotTell, calibration: Fit::default(), summary }
 }
 
 /// A part a loop round took out ([`crate::compare::run_loop`] with
