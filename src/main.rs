@@ -1037,6 +1037,9 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
     for (k, why) in &last.failed_trials {
         println!("    {:<18} not ranked: its trial failed: {why}", k.name());
     }
+    if let Some(w) = last.silent_model_warning(&meas.unit) {
+        println!("\nwarning: {w}");
+    }
     println!("\nverdict: {}", last.verdict);
     if let Some(r) = &last.strength_range {
         println!(

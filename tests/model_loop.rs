@@ -257,6 +257,11 @@ fn a_silent_model_has_no_part_to_judge() {
     assert_eq!(d.removals.len(), 1, "its contact nonlinearity");
     assert!(d.removals.iter().all(|r| r.reading == RemovalReading::CannotTell && r.summary.contains("no vibration but its noise")), "{:?}", d.removals[0].summary);
     assert_eq!(calls, expected, "no evaluation expected that is not made");
+    // The diagnosis itself says the model is silent, whatever its options.
+    assert_eq!(d.silent_model, Some((model_rms, measured_rms)));
+    assert!(d.silent_model_warning("g").is_some_and(|w| w.contains("no vibration but its noise") && w.contains("cwru_6205_healthy")));
+    let (_, vibrating) = twinscope::compare::diagnose(&healthy, &measured, &LoopOptions { removal_trials: false, ..opts }, &|_, _| true).unwrap();
+    assert_eq!((vibrating.silent_model, vibrating.silent_model_warning("g")), (None, None));
 }
 
 /// Diagnoses, counting the progress calls: (diagnosis, calls made, the last expected total).

@@ -291,6 +291,12 @@ pub struct Diagnosis {
     /// ([`super::resampled_from_hz`]); None when it was compared at its own rate.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measured_resampled_from_hz: Option<f64>,
+    /// Set when the starting model holds no vibration but its noise
+    /// ([`super::removal::silent`]): `(model rms without its noise, measured rms)`. Its
+    /// calibration then scales round-off, and nothing the search says of it means much (the
+    /// inner-race preset without its fault: 5.4e-16 g against 097's 0.07 g).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub silent_model: Option<(f64, f64)>,
 }
 
 /// A diagnosis redone with several realisations because a random effect led it with one
@@ -323,6 +329,13 @@ impl Diagnosis {
     /// Compare trials' `objective_after` with this one, not with the calibration's.
     pub fn judged_objective(&self) -> f64 {
         self.held_out_objective.unwrap_or(self.calibration.objective_after)
+    }
+
+    /// The warning for a [`Diagnosis::silent_model`], None when the model vibrates.
+    pub fn silent_model_warning(&self, unit: &str) -> Option<String> {
+        self.silent_model.map(|(model_rms, measured_rms)| {
+            format!("the model holds no vibration but its noise (rms {model_rms:.1e} {unit} without its noise, against the measurement's {measured_rms:.2e} {unit}): its calibration scales round-off, so the ranking means little; give it what makes it vibrate (a fault, a load zone carrying the rotor's weight: the preset cwru_6205_healthy for a healthy 6205)")
+        })
     }
 
     /// The rate compared at in words: "12000 Hz (the measurement resampled from 48000 Hz)".
@@ -840,6 +853,7 @@ pub fn diagnose(m: &Machine, measured: &Signal, opts: &LoopOptions, progress: &(
 pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<(Machine, Diagnosis), LoopError> {
     let (cal, d) = diagnose_search(m, reference, opts, progress)?;
     let (cal, mut d) = answer(cal, d, reference, opts, progress)?;
+    d.silent_model = super::removal::silent(m, reference, opts)?;
     if opts.removal_trials {
         let judged = super::removal::removal_options(opts);
         d.removals = super::removal::removal_trials(m, reference, &judged, progress)?;
@@ -1505,7 +1519,7 @@ fn diagnose_once(m: &Machine, reference: &Reference, opts: &LoopOptions, unbend:
     let (trials, best, verdict) = decide(trials, j0, floor, scatter, opts);
     let near_floor_lead = named_lead(&trials, j0, floor, scatter, opts);
     let domains = c.domains.iter().map(|d| (d.domain.clone(), d.metrics.pearson, d.metrics.nrmse_percent)).collect();
-    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead, joint_trials: Vec::new(), removals: Vec::new(), compared_at_hz: measured.measured().fs_hz, measured_resampled_from_hz: super::resampled_from_hz(measured.measured()) }))
+    Ok((cal_m, Diagnosis { calibration: cal, domains, residual_map: map, floor_objective: floor, floor_domains, floor_ratio_needed: if opts.decision_rule == DecisionRule::FloorMargin { floor_ratio_needed(opts) } else { 0.0 }, objective_scatter: scatter, trials, best, verdict, failed_trials, unbent, path_correction: c.path_correction.clone(), held_out_objective, second_look: None, stuck_plain_verdict: None, short_plain: None, top_second_starts_won, fine_cell_won, strength_range: None, near_floor_lead, joint_trials: Vec::new(), removals: Vec::new(), compared_at_hz: measured.measured().fs_hz, measured_resampled_from_hz: super::resampled_from_hz(measured.measured()), silent_model: None }))
 }
 
 /// The parameters the plain trial of `k` (from the calibrated model) scans on a grid before

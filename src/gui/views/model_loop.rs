@@ -313,6 +313,10 @@ impl ModelLoopView {
             ui.weak(format!("Judged on held-out realisations: the calibrated model scores {jh:.2} there ({:.2} on the realisations it was fitted to); the trials' numbers are held-out too", d.calibration.objective_after))
                 .on_hover_text("with several model realisations a fit can exploit its own realisations' scatter; every trial is therefore judged on realisations no fit used");
         }
+        let unit = measured.and_then(|i| session.signals.get(i)).map_or("", |s| s.signal.unit.as_str());
+        if let Some(w) = d.silent_model_warning(unit) {
+            ui.add(egui::Label::new(RichText::new(format!("Warning: {}", drawable(&w))).color(ui.visuals().warn_fg_color)).wrap());
+        }
         let verdict = RichText::new(format!("Verdict: {}", drawable(&d.verdict)));
         ui.add(egui::Label::new(if d.best.is_some() { verdict.strong() } else { verdict }).wrap());
         if let Some(sr) = &d.strength_range {
