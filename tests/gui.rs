@@ -267,6 +267,14 @@ fn model_loop_on_105(candidates: Vec<twinscope::model::EffectKind>) -> Harness<'
     h
 }
 
+/// Puts `diagnosis` in the model view as the result of a search made with `options` on the
+/// first signal, from the view's machine as it is (started from and calibrated to it).
+fn show_diagnosis(h: &mut Harness<'static, Workbench>, diagnosis: twinscope::compare::Diagnosis, options: twinscope::compare::LoopOptions) {
+    let m = h.state().session.model.machine.clone();
+    let measured = h.state().session.signals[0].signal.name.clone();
+    h.state_mut().session.model.result = Some(twinscope::gui::session::LoopResult { measured, options, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0, refitted: None });
+}
+
 /// The model loop with a fast search (0.3 s fits, 3 evaluations per parameter, one sweep, two
 /// candidate effects): Find missing effect ranks both with before → after numbers and a
 /// verdict; Add switches the ranked effect on with its fitted parameters, re-simulates and
@@ -667,14 +675,11 @@ fn search_settings_set_the_realisations_and_fit_duration() {
 #[test]
 fn model_loop_says_when_a_diagnosis_is_a_second_look() {
     use twinscope::compare::{Diagnosis, Fit, LoopOptions, SecondLook};
-    use twinscope::gui::session::LoopResult;
     let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::Slip]);
-    let m = h.state().session.model.machine.clone();
-    let name = h.state().session.signals[0].signal.name.clone();
     {
         let second_look = Some(SecondLook { realisations: 4, leader: twinscope::model::EffectKind::Slip, verdict_with_one: "nothing significant is missing (best trial: slip explains 12 %)".into() });
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, held_out_objective: Some(8.4), second_look, verdict: "slip: ...".into(), ..Default::default() };
-        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions { random_effect_realisations: 4, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0, refitted: None });
+        show_diagnosis(&mut h, diagnosis, LoopOptions { random_effect_realisations: 4, ..Default::default() });
     }
     h.run_steps(3);
     assert!(h.query_by_label_contains("Second look with 4 realisations: slip led the search with one").is_some(), "the second look is shown");
@@ -687,7 +692,6 @@ fn model_loop_says_when_a_diagnosis_is_a_second_look() {
 fn model_loop_shows_the_strength_range_of_the_chosen_effect() {
     use twinscope::compare::strength_range::StrengthRange;
     use twinscope::compare::{Diagnosis, Fit, LoopOptions, Param};
-    use twinscope::gui::session::LoopResult;
     let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::GearMesh]);
     assert!(!h.state().settings.loop_options(Default::default()).strength_range, "off by default");
     h.get_by_label("Search settings").click();
@@ -695,13 +699,11 @@ fn model_loop_shows_the_strength_range_of_the_chosen_effect() {
     h.get_by_label("strength range: the chosen effect's strength with the range the data cannot tell from it").click_accesskit();
     h.run_steps(3);
     assert!(h.state().settings.loop_options(Default::default()).strength_range);
-    let m = h.state().session.model.machine.clone();
-    let name = h.state().session.signals[0].signal.name.clone();
     {
         let profile = vec![(0.4, 2.33), (0.646, 2.318), (0.722, 2.357), (0.8, 2.394)];
         let range = StrengthRange { parameter: Param::MeshVariation, fitted: 0.722, low: 0.4, high: 0.8, low_open: true, high_open: false, objective_fitted: 2.357, tolerance: 0.29, profile, lowest: (0.646, 2.318) };
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, verdict: "gear_mesh: ...".into(), strength_range: Some(range), ..Default::default() };
-        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions::default(), started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0, refitted: None });
+        show_diagnosis(&mut h, diagnosis, LoopOptions::default());
     }
     h.run_steps(3);
     let shown = labels_containing(&h, "Strength range:");
@@ -714,13 +716,10 @@ fn model_loop_shows_the_strength_range_of_the_chosen_effect() {
 #[test]
 fn model_loop_names_the_rate_a_faster_measurement_was_compared_at() {
     use twinscope::compare::{Diagnosis, Fit, LoopOptions};
-    use twinscope::gui::session::LoopResult;
     let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::Slip]);
-    let m = h.state().session.model.machine.clone();
-    let name = h.state().session.signals[0].signal.name.clone();
     for (from, shown) in [(Some(48000.0), 1), (None, 0)] {
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, verdict: "nothing significant is missing (...)".into(), compared_at_hz: 12000.0, measured_resampled_from_hz: from, ..Default::default() };
-        h.state_mut().session.model.result = Some(LoopResult { measured: name.clone(), options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None });
+        show_diagnosis(&mut h, diagnosis, LoopOptions::default());
         h.run_steps(3);
         assert_eq!(labels_containing(&h, "compared at 12000 Hz (the measurement resampled from 48000 Hz)").len(), shown, "resampled from {from:?}");
     }
@@ -733,7 +732,6 @@ fn model_loop_names_the_rate_a_faster_measurement_was_compared_at() {
 fn model_loop_lists_the_removal_trials_and_takes_out_a_contradicted_fault() {
     use twinscope::compare::removal::{ModelPart, RemovalReading, RemovalTrial};
     use twinscope::compare::{Diagnosis, Fit, LoopOptions};
-    use twinscope::gui::session::LoopResult;
     let mut h = model_loop_on_105(vec![twinscope::model::EffectKind::Slip]);
     assert!(!h.state().settings.loop_options(Default::default()).removal_trials, "off by default");
     h.get_by_label("Search settings").click();
@@ -743,7 +741,6 @@ fn model_loop_lists_the_removal_trials_and_takes_out_a_contradicted_fault() {
     assert!(h.state().settings.loop_options(Default::default()).removal_trials);
     let m = h.state().session.model.machine.clone();
     assert!(m.bearings[0].fault.is_some());
-    let name = h.state().session.signals[0].signal.name.clone();
     {
         let fault = ModelPart::Fault { bearing: m.bearings[0].name.clone() };
         let trial = |part: ModelPart, reading: RemovalReading, summary: &str| RemovalTrial { label: part.label(&m), part, objective_with: 31.65, objective_without: 29.02, envelope_nrmse_with: 21.0, envelope_nrmse_without: 19.6, floor_objective: 21.43, tie_width: 2.3, realisations: 4, explained: 0.26, reading, calibration: Fit::default(), summary: summary.into() };
@@ -752,7 +749,7 @@ fn model_loop_lists_the_removal_trials_and_takes_out_a_contradicted_fault() {
             trial(ModelPart::Effect(twinscope::model::EffectKind::NonlinearContact), RemovalReading::CannotTell, "the data cannot tell whether nonlinear_contact is there: ..."),
         ];
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 31.65, ..Default::default() }, floor_objective: 21.43, verdict: "nothing significant is missing (...)".into(), removals, ..Default::default() };
-        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions::default(), started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None });
+        show_diagnosis(&mut h, diagnosis, LoopOptions::default());
     }
     h.run_steps(3);
     assert_eq!(labels_containing(&h, "contradicted: the measurement does not support the inner-race fault").len(), 1);
@@ -771,11 +768,8 @@ fn model_loop_lists_the_removal_trials_and_takes_out_a_contradicted_fault() {
 #[test]
 fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
     use twinscope::compare::{Diagnosis, EffectTrial, Fit, LoopOptions, Param};
-    use twinscope::gui::session::LoopResult;
     use twinscope::model::EffectKind::{self, *};
     let mut h = model_loop_on_105(vec![LoadZone, Unbalance]);
-    let m = h.state().session.model.machine.clone();
-    let name = h.state().session.signals[0].signal.name.clone();
     let trial = |effect: EffectKind, parameter: (Param, f64), objective_after: f64, from_uncalibrated: bool| EffectTrial {
         effect,
         parameter: Some(parameter),
@@ -806,7 +800,7 @@ fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
     {
         let trials = vec![trial(LoadZone, (Param::RadialLoadN, 86.0), 3.0, true), trial(Unbalance, (Param::UnbalanceKgM, 3e-4), 7.0, false)];
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, trials, best: Some(LoadZone), verdict: "load_zone: ...".into(), ..Default::default() };
-        h.state_mut().session.model.result = Some(LoopResult { measured: name, options: LoopOptions { uncalibrated_start: true, ..Default::default() }, started_from: m.clone(), calibrated: m, diagnosis, added: vec![], seconds: 1.0, refitted: None });
+        show_diagnosis(&mut h, diagnosis, LoopOptions { uncalibrated_start: true, ..Default::default() });
     }
     h.run_steps(3);
     let marked = labels_containing(&h, "its best fit started from the uncalibrated values");
@@ -822,11 +816,8 @@ fn model_loop_says_which_trials_started_from_the_uncalibrated_values() {
 #[test]
 fn model_loop_lists_the_refused_joint_trials_of_a_stuck_search() {
     use twinscope::compare::{Diagnosis, EffectTrial, Fit, LoopOptions, Param};
-    use twinscope::gui::session::LoopResult;
     use twinscope::model::EffectKind::*;
     let mut h = model_loop_on_105(vec![LoadZone]);
-    let m = h.state().session.model.machine.clone();
-    let name = h.state().session.signals[0].signal.name.clone();
     let joint = |effect, with, objective_after: f64, each: (f64, f64)| EffectTrial {
         effect,
         with_effect: Some(with),
@@ -856,7 +847,7 @@ fn model_loop_lists_the_refused_joint_trials_of_a_stuck_search() {
     let joint_trials = vec![joint(SensorResponse, PathModulation, 7.4, (0.06, 0.04)), joint(Slip, PathModulation, 7.7, (0.02, 0.03))];
     let put = |h: &mut Harness<'static, Workbench>, best: Option<twinscope::model::EffectKind>, trials: Vec<EffectTrial>| {
         let diagnosis = Diagnosis { calibration: Fit { objective_after: 8.0, ..Default::default() }, floor_objective: 2.0, trials, best, joint_trials: joint_trials.clone(), verdict: "nothing significant is missing".into(), ..Default::default() };
-        h.state_mut().session.model.result = Some(LoopResult { measured: name.clone(), options: LoopOptions { joint_trials: true, ..Default::default() }, started_from: m.clone(), calibrated: m.clone(), diagnosis, added: vec![], seconds: 1.0, refitted: None });
+        show_diagnosis(h, diagnosis, LoopOptions { joint_trials: true, ..Default::default() });
         h.run_steps(3);
     };
     put(&mut h, None, vec![]);

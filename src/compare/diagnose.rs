@@ -333,8 +333,8 @@ impl Diagnosis {
 
     /// The warning for a [`Diagnosis::silent_model`], None when the model vibrates.
     pub fn silent_model_warning(&self, unit: &str) -> Option<String> {
-        self.silent_model.map(|(model_rms, measured_rms)| {
-            format!("the model holds no vibration but its noise (rms {model_rms:.1e} {unit} without its noise, against the measurement's {measured_rms:.2e} {unit}): its calibration scales round-off, so the ranking means little; give it what makes it vibrate (a fault, a load zone carrying the rotor's weight: the preset cwru_6205_healthy for a healthy 6205)")
+        self.silent_model.map(|rms_pair| {
+            format!("{}: its calibration scales round-off, so the ranking means little; give it what makes it vibrate (a fault, a load zone carrying the rotor's weight: the preset cwru_6205_healthy for a healthy 6205)", super::removal::silent_model_words(rms_pair, unit))
         })
     }
 
@@ -856,7 +856,7 @@ pub fn diagnose_with(m: &Machine, reference: &Reference, opts: &LoopOptions, pro
     d.silent_model = super::removal::silent(m, reference, opts)?;
     if opts.removal_trials {
         let judged = super::removal::removal_options(opts);
-        d.removals = super::removal::removal_trials(m, reference, &judged, progress)?;
+        d.removals = super::removal::removal_trials(m, reference, &judged, d.silent_model, progress)?;
     }
     Ok((cal, d))
 }
@@ -2760,9 +2760,8 @@ mod tests {
             let linear = crate::model::simulate(&m).unwrap();
             m.effects.enable(NonlinearContact);
             let hertz = crate::model::simulate(&m).unwrap();
-            let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
             let diff: Vec<f64> = linear.samples.iter().zip(&hertz.samples).map(|(a, b)| a - b).collect();
-            rms(&diff) / rms(&linear.samples)
+            crate::dsp::rms(&diff) / crate::dsp::rms(&linear.samples)
         };
         let m = gear_base_without_load_or_nonlinearity();
         let unloaded = rel_change(m.clone());

@@ -289,8 +289,7 @@ pub fn align(measured: &Signal, simulated: &Signal, opts: &CompareOptions) -> Re
     }
     let meas = measured.samples[..n].to_vec();
     sim.truncate(n);
-    let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
-    let rms_ratio_db = 20.0 * (rms(&sim) / rms(&meas).max(1e-300)).log10();
+    let rms_ratio_db = 20.0 * (dsp::rms(&sim) / dsp::rms(&meas).max(1e-300)).log10();
     Ok((meas, sim, Alignment { fs_hz: measured.fs_hz, resampled_from_hz, measured_resampled_from_hz: None, unit_factor, speed_ratio, duration_s: n as f64 / measured.fs_hz, rms_ratio_db }))
 }
 
@@ -323,7 +322,7 @@ fn onto_axis(meas: &Spectrum, sim: &Spectrum, speed_ratio: f64) -> Vec<f64> {
 }
 
 fn unit_rms(x: &[f64]) -> Vec<f64> {
-    let rms = (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt();
+    let rms = dsp::rms(x);
     if rms > 0.0 {
         x.iter().map(|v| v / rms).collect()
     } else {

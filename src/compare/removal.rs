@@ -30,6 +30,7 @@
 use super::calibrate::{calibration_parameters_for, evaluate, objective, Fit, LoopError, LoopOptions, LoopProgress};
 use super::diagnose::{calibrate_round, calibrate_round_evaluations, objective_scatter, reseeded, seed_floor, tie_width, FLOOR_SEEDS, HELD_OUT_SALT, SCATTER_SEEDS};
 use super::Reference;
+use crate::dsp::rms;
 use crate::model::{EffectKind, Machine};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -179,7 +180,6 @@ pub const SILENT_RMS_SHARE: f64 = 1e-8;
 /// `Some((model rms, measured rms))` when `m` without its noise, simulated for the fit's
 /// duration, is silent ([`SILENT_RMS_SHARE`] of the measurement's rms); None otherwise.
 pub fn silent(m: &Machine, reference: &Reference, opts: &LoopOptions) -> Result<Option<(f64, f64)>, LoopError> {
-    let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt();
     let measured = reference.measured();
     let mut quiet = m.clone();
     quiet.effects.disable(EffectKind::Noise);
@@ -187,6 +187,13 @@ pub fn silent(m: &Machine, reference: &Reference, opts: &LoopOptions) -> Result<
     let model_rms = rms(&crate::model::simulate(&quiet)?.samples);
     let measured_rms = rms(&measured.samples);
     Ok((model_rms < SILENT_RMS_SHARE * measured_rms).then_some((model_rms, measured_rms)))
+}
+
+/// What a silent model is, in words (the one source of the sentence the removal trials and
+/// [`super::Diagnosis::silent_model_warning`] give): `(model_rms, measured_rms)` as
+/// [`silent`] returns them, in `unit`.
+pub fn silent_model_words((model_rms, measured_rms): (f64, f64), unit: &str) -> String {
+    format!("the model holds no vibration but its noise (rms {model_rms:.1e} {unit} without its noise, against the measurement's {measured_rms:.2e} {unit})")
 }
 
 /// Model evaluations of [`calibrated_and_judged`] of `m`, with its floor or without.
@@ -249,7 +256,10 @@ fn calibrated_and_judged(m: &Machine, reference: &Reference, opts: &LoopOptions,
 /// the inner-race preset without its fault read its contact nonlinearity "contradicted",
 /// 29.02 → 26.24). Each part then reads [`RemovalReading::CannotTell`], saying why, and no
 /// calibration is made.
-pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, progress: &LoopProgress) -> Result<Vec<RemovalTrial>, LoopError> {
+///
+/// `silent_model` is [`silent`]'s answer for `m` (the diagnosis holds it:
+/// [`super::Diagnosis::silent_model`]), passed in so that the noise-free simulation is made once.
+pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, silent_model: Option<(f64, f64)>, progress: &LoopProgress) -> Result<Vec<RemovalTrial>, LoopError> {
     let parts: Vec<(ModelPart, Result<Machine, String>)> = removable_parts(m).into_iter().map(|p| {
         let w = p.removed_from(m).map_err(|e| format!("the machine without it is not valid: {e}"));
         (p, w)
@@ -257,9 +267,8 @@ pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, pr
     if parts.is_empty() {
         return Ok(Vec::new());
     }
-    if let Some((model_rms, measured_rms)) = silent(m, reference, opts)? {
-        let unit = &reference.measured().unit;
-        let why = format!("the model holds no vibration but its noise (rms {model_rms:.1e} {unit} without its noise, against the measurement's {measured_rms:.2e} {unit}), so no part of it can be judged");
+    if let Some(rms_pair) = silent_model {
+        let why = format!("{}, so no part of it can be judged", silent_model_words(rms_pair, &reference.measured().unit));
         return Ok(parts.into_iter().map(|(part, _)| not_judged(part, m, &why, opts)).collect());
     }
     progress.expect(removal_trial_evaluations(m, opts));
@@ -337,8 +346,10 @@ pub struct TakenOut {
     pub explained: f64,
 }
 
-/// The contradicted removal trial of `removals` that takes the largest share of the error
-/// above the floor (the first of equals); None when none is contradicted.
+/// The contradicted removal trial of `removals` whose model without its part scores lowest
+/// (the first of equals); None when none is contradicted. Every trial shares the objective
+/// with the part and its floor, so this is also the one that takes the largest share of the
+/// error above the floor.
 pub fn most_contradicted(removals: &[RemovalTrial]) -> Option<&RemovalTrial> {
     removals.iter().filter(|t| t.reading == RemovalReading::Contradicted).fold(None, |best: Option<&RemovalTrial>, t| match best {
         Some(b) if b.objective_without <= t.objective_without => Some(b),

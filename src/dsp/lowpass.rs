@@ -47,9 +47,7 @@ mod tests {
         (0..n).map(|i| (TAU * f_hz * i as f64 / fs_hz).sin()).collect()
     }
 
-    fn rms(x: &[f64]) -> f64 {
-        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
-    }
+    use crate::dsp::rms;
 
     #[test]
     fn tones_in_pass_transition_and_stop_band_get_the_specified_gain() {

@@ -18,4 +18,5 @@ pub mod welch;
 pub mod window;
 
 pub use error::DspError;
+pub use normalise::rms;
 pub use window::Window;

@@ -42,6 +42,11 @@ impl NormaliseParams {
     }
 }
 
+/// Root mean square of a record, `sqrt((1/n) Σ x[i]²)` (not about the mean); 0 for an empty one.
+pub fn rms(x: &[f64]) -> f64 {
+    (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt()
+}
+
 /// Normalise a record: optional mean removal, then scaling by the peak or the standard deviation.
 ///
 /// Parameters

@@ -267,7 +267,7 @@ pub fn post_process(x: &[f64], fs_hz: f64, post: &PostProcessing, seed: u64) -> 
         }
     }
     if let Some((snr_db, colour)) = post.noise {
-        let rms = (y.iter().map(|v| v * v).sum::<f64>() / y.len().max(1) as f64).sqrt();
+        let rms = crate::dsp::rms(&y);
         let std = rms * 10f64.powf(-snr_db / 20.0);
         let noise = coloured_noise(y.len(), std, colour, seed.wrapping_add(0x5EED));
         y.iter_mut().zip(noise).for_each(|(a, b)| *a += b);
@@ -317,7 +317,7 @@ pub fn coloured_noise(n: usize, std: f64, colour: NoiseColour, seed: u64) -> Vec
             }
         }
     };
-    let rms = (shaped.iter().map(|v| v * v).sum::<f64>() / n.max(1) as f64).sqrt();
+    let rms = crate::dsp::rms(&shaped);
     if rms > 0.0 {
         shaped.into_iter().map(|v| v * std / rms).collect()
     } else {
@@ -330,9 +330,7 @@ mod tests {
     use super::*;
     use crate::model::AntiAliasFilter;
 
-    fn rms(x: &[f64]) -> f64 {
-        (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
-    }
+    use crate::dsp::rms;
 
     #[test]
     fn the_antialias_filter_acts_and_a_record_it_cannot_filter_is_an_error() {
