@@ -1163,9 +1163,11 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         }
         Ok(())
     };
+    // With --removal-trials a last column reads each part of the starting model.
+    let (removal_head, removal_rule) = if opts.removal_trials { (" removal trials (share of the error above the floor) |", "---|") } else { ("", "") };
     if !cases.is_empty() {
-        println!("| hidden | true parameter | SNR dB | objective / floor | chosen | rank of hidden | hidden explains (% above floor) | envelope NRMSE before → after (%) | calibrated objective / true machine's (envelope NRMSE %) / without the hidden | recoverable | hidden's trial recovers (%) | s |");
-        println!("|---|---|---:|---:|---|---:|---:|---|---|---|---:|---:|");
+        println!("| hidden | true parameter | SNR dB | objective / floor | chosen | rank of hidden | hidden explains (% above floor) | envelope NRMSE before → after (%) | calibrated objective / true machine's (envelope NRMSE %) / without the hidden | recoverable | hidden's trial recovers (%) | s |{removal_head}");
+        println!("|---|---|---:|---:|---|---:|---:|---|---|---|---:|---:|{removal_rule}");
     }
     for (h, value, case_seed) in &cases {
         let r = hidden::run_case_set(&base, *h, *case_seed, duration_s, &hidden::CaseSetting { value: *value, ..setting }, &opts)?;
@@ -1175,7 +1177,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         let oracle = oracle_cell(&r.oracle, calibrated);
         let recovers = r.hidden_trial().map(|t| r.oracle.recovered(calibrated, t.objective_after)).filter(|x| x.is_finite()).map_or("-".to_string(), |x| format!("{:.0}", x * 100.0));
         println!(
-            "| {} | {} | {:.1} | {:.2} | {} | {} | {} | {:.1} → {:.1} | {} | {} | {} | {:.0} |",
+            "| {} | {} | {:.1} | {:.2} | {} | {} | {} | {:.1} → {:.1} | {} | {} | {} | {:.0} |{}",
             h.map(|k| k.name()).unwrap_or("(control)"),
             tp,
             r.snr_db,
@@ -1188,7 +1190,8 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             oracle,
             r.oracle.reading(calibrated).unwrap_or("-"),
             recovers,
-            r.seconds
+            r.seconds,
+            if opts.removal_trials { format!(" {} |", r.removals.iter().map(|t| t.cell()).collect::<Vec<_>>().join("; ")) } else { String::new() }
         );
         results.push(r);
         write_json(&results, &multi)?;
@@ -1197,6 +1200,13 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         let hits = results.iter().filter(|r| r.hidden.is_some() && r.chosen == r.hidden).count();
         let ok_controls = results.iter().filter(|r| r.hidden.is_none() && r.chosen.is_none()).count();
         println!("\nhidden effect ranked first and chosen: {hits}/{}; controls answered nothing significant: {ok_controls}/{controls}", cases.len() - controls);
+        if opts.removal_trials {
+            // Every part of a starting model is in its true machine: a contradicted one is false.
+            let judged: usize = results.iter().map(|r| r.removals.len()).sum();
+            let contradicted: Vec<String> = results.iter().flat_map(|r| r.removals.iter().filter(|t| t.reading == twinscope::compare::removal::RemovalReading::Contradicted).map(move |t| format!("{} ({})", t.cell(), r.hidden.map_or("control", |k| k.name())))).collect();
+            let needed = results.iter().flat_map(|r| &r.removals).filter(|t| t.reading == twinscope::compare::removal::RemovalReading::Needed).count();
+            println!("removal trials: {judged} parts judged, {needed} needed, {} contradicted (each part is in the true machine, so a contradiction is false){}", contradicted.len(), if contradicted.is_empty() { String::new() } else { format!(": {}", contradicted.join("; ")) });
+        }
         let recoverable: Vec<&hidden::CaseResult> = results.iter().filter(|r| r.recoverable()).collect();
         let found = recoverable.iter().filter(|r| r.chosen == r.hidden).count();
         let halved = recoverable.iter().filter(|r| r.chosen == r.hidden && r.envelope_nrmse_after <= 0.5 * r.envelope_nrmse_before).count();

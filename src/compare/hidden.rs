@@ -73,6 +73,11 @@ pub struct CaseResult {
     /// The chosen effect's strength range ([`LoopOptions::strength_range`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strength_range: Option<super::strength_range::StrengthRange>,
+    /// The removal trials of the starting model ([`LoopOptions::removal_trials`];
+    /// [`super::Diagnosis::removals`]): every part of it is in the true machine, so a
+    /// contradicted one is a false contradiction.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub removals: Vec<super::removal::RemovalTrial>,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -412,6 +417,7 @@ pub fn run_case_set(base: &Machine, hidden: Option<EffectKind>, seed: u64, durat
         fine_cell_won: d.fine_cell_won.clone(),
         oracle,
         strength_range: d.strength_range.clone(),
+        removals: d.removals.clone(),
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

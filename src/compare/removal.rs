@@ -69,6 +69,14 @@ impl ModelPart {
         }
     }
 
+    /// The part in a few words, for a table cell: `fault of de`, `load_zone`.
+    pub fn short_label(&self) -> String {
+        match self {
+            ModelPart::Fault { bearing } => format!("fault of {bearing}"),
+            ModelPart::Effect(k) => k.name().to_string(),
+        }
+    }
+
     /// `m` without the part (a fitted effect taken out of [`Machine::fitted_effects`] too), validated.
     pub fn removed_from(&self, m: &Machine) -> Result<Machine, crate::model::ModelError> {
         let mut out = m.clone();
@@ -325,6 +333,15 @@ pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, si
             RemovalTrial { part, label, objective_with: j0, objective_without: j, envelope_nrmse_with: env0, envelope_nrmse_without: env, floor_objective: floor, tie_width: tie, realisations: opts.realisations, explained, reading, calibration: w.fit, summary }
         })
         .collect())
+}
+
+impl RemovalTrial {
+    /// The trial in a few words, for a table cell: `fault of de: needed (-85 %)`, the share of
+    /// the error above the floor its removal takes (negative: it adds error; `-` when not judged).
+    pub fn cell(&self) -> String {
+        let share = if self.explained.is_finite() { format!("{:.0} %", self.explained * 100.0) } else { "-".into() };
+        format!("{}: {} ({share})", self.part.short_label(), self.reading.name())
+    }
 }
 
 /// The trial of a part that was not judged, `why` saying why: "cannot tell", every number NaN.
