@@ -204,6 +204,12 @@ enum Command {
         /// Fix the measurement SNR (dB) instead of drawing it in 0–20 dB.
         #[arg(long, value_name = "DB")]
         snr_db: Option<f64>,
+        /// The other way round: each effect (every `--effect`, or every applicable one but the
+        /// noise) is put in the model, drawn as a hidden one would be, and left out of the
+        /// measurement; the search runs with its removal trials, which should read that effect
+        /// contradicted. No controls: a plain table with `--removal-trials` is their control.
+        #[arg(long, conflicts_with_all = ["hide", "values"])]
+        extra: bool,
         /// Write all case results as JSON (rewritten after every case): an array of single-effect
         /// cases, or, with `--hide`, `{"single": [...], "multi": [...]}`.
         #[arg(long)]
@@ -601,8 +607,11 @@ fn run(cli: Cli, command: &clap::Command, matches: &clap::ArgMatches) -> Result<
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Compare { measured, simulated, preset, with, channel, band_hz, band_from_kurtogram, bearing, fault_hz, path_correction, json }) => compare_cmd(&measured, simulated.as_deref(), preset, &with, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, bearing, fault_hz, path_correction as usize, json.as_deref(), cli.quiet),
         Some(Command::Diagnose { measured, machine, preset, channel, band_hz, band_from_kurtogram, with, refit, rounds, json, save_machine, step, search }) => diagnose_cmd(&measured, machine.as_deref(), preset, channel, Band { hz: band_hz, from_kurtogram: band_from_kurtogram }, &with, &refit, rounds, &step, (search.options(), search_words(command, matches)), json.as_deref(), save_machine.as_deref(), cli.quiet),
-        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, json, step, search }) => {
+        Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, extra, json, step, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
+            if extra {
+                return extra_confusion_cmd(&preset, &effects, duration_s, seed, sweep, &step, json.as_deref(), search.options());
+            }
             confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, &step, json.as_deref(), search.options())
         }
         Some(Command::Simulate { machine, preset, output, duration_s, seed, with, without, step }) => simulate(machine, preset, &output, duration_s, seed, &with, &without, &step, cli.quiet),
@@ -1099,6 +1108,73 @@ fn oracle_cell(o: &twinscope::compare::hidden::Oracle, model_objective: f64) -> 
 }
 
 #[allow(clippy::too_many_arguments)]
+/// `confusion --extra`: each effect put in the model and left out of the measurement, read by
+/// the removal trials ([`twinscope::compare::hidden::run_extra_case`]).
+fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: u64, setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
+    use twinscope::compare::diagnose::effect_values_text;
+    use twinscope::compare::hidden;
+    use twinscope::compare::removal::RemovalReading;
+    use twinscope::model::{self, EffectKind, Effects};
+    let mut base = model::preset(preset)?;
+    if let Some(n) = step.substeps {
+        step.apply(&mut base);
+        base.validate().with_context(|| format!("--substeps {n}"))?;
+    }
+    let kinds: Vec<EffectKind> = if effects.is_empty() {
+        EffectKind::ALL.into_iter().filter(|k| *k != EffectKind::Noise && Effects::applicable(*k, &base)).collect()
+    } else {
+        effects.iter().map(|n| EffectKind::parse_named(n.trim()).map_err(anyhow::Error::msg)).collect::<Result<_>>()?
+    };
+    for k in &kinds {
+        if *k == EffectKind::Noise {
+            anyhow::bail!("--extra --effect noise: the noise is the record's, no part of a model to take out");
+        }
+        if !Effects::applicable(*k, &base) {
+            anyhow::bail!("--extra --effect {}: does not apply to preset {preset}", k.name());
+        }
+    }
+    if let Some(snr) = setting.snr_db {
+        if !(snr.is_finite() && (-20.0..=60.0).contains(&snr)) {
+            anyhow::bail!("--snr-db {snr}: give a measurement SNR between -20 and 60 dB");
+        }
+    }
+    println!("| in the model, not the machine | its parameter | SNR dB | its removal trial: objective with → without (tie width; floor) | reading (share of the error above the floor) | the other parts | search's answer | s |");
+    println!("|---|---|---:|---|---|---|---|---:|");
+    let mut results: Vec<hidden::ExtraCaseResult> = Vec::new();
+    for (i, k) in kinds.iter().enumerate() {
+        let r = hidden::run_extra_case(&base, *k, seed + i as u64, duration_s, &setting, &opts)?;
+        let t = r.extra_trial();
+        let numbers = t.filter(|t| t.objective_with.is_finite()).map_or("-".to_string(), |t| format!("{:.2} → {:.2} (±{:.2}; {:.2})", t.objective_with, t.objective_without, t.tie_width, t.floor_objective));
+        let reading = t.map_or("not judged".to_string(), |t| t.cell());
+        let others = r.removals.iter().filter(|o| Some(*o) != t).map(|o| o.cell()).collect::<Vec<_>>().join("; ");
+        println!(
+            "| {} | {} | {:.1} | {numbers} | {reading} | {} | {} | {:.0} |",
+            k.name(),
+            r.parameter.map(|pv| effect_values_text(&[pv])).unwrap_or_else(|| "-".into()),
+            r.snr_db,
+            if others.is_empty() { "-" } else { &others },
+            r.chosen.map(|k| k.name()).unwrap_or("nothing significant"),
+            r.seconds
+        );
+        results.push(r);
+        if let Some(p) = json {
+            std::fs::write(p, serde_json::to_string_pretty(&results)?)?;
+        }
+    }
+    let count = |want: RemovalReading| results.iter().filter(|r| r.extra_trial().map(|t| t.reading) == Some(want)).count();
+    let others_contradicted: Vec<String> = results.iter().flat_map(|r| r.removals.iter().filter(|o| Some(*o) != r.extra_trial() && o.reading == RemovalReading::Contradicted).map(move |o| format!("{} (beside {})", o.cell(), r.extra.name()))).collect();
+    println!(
+        "\nthe extra effect read contradicted: {}/{}; cannot tell: {}; needed (a false need): {}; other parts read contradicted (false): {}{}",
+        count(RemovalReading::Contradicted),
+        results.len(),
+        count(RemovalReading::CannotTell),
+        count(RemovalReading::Needed),
+        others_contradicted.len(),
+        if others_contradicted.is_empty() { String::new() } else { format!(": {}", others_contradicted.join("; ")) }
+    );
+    Ok(())
+}
+
 fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;

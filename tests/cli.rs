@@ -118,6 +118,26 @@ fn confusion_refuses_bad_hidden_effect_groups_before_any_work() {
     assert_clean_failure(&run(&["confusion", "--hide", "load_zone+slip", "--rounds", "0", "--controls", "0"]), &["--rounds"]);
 }
 
+/// `confusion --extra`: an effect put in the model and left out of the measurement, read by
+/// the removal trials; the noise and an effect the preset cannot have are refused at once.
+#[test]
+fn confusion_extra_reads_an_effect_the_machine_lacks_and_refuses_what_is_no_part() {
+    assert_clean_failure(&run(&["confusion", "--extra", "--effect", "noise"]), &["--extra --effect noise", "no part of a model"]);
+    assert_clean_failure(&run(&["confusion", "--preset", "cwru_6205_inner", "--extra", "--effect", "gear_mesh"]), &["gear_mesh", "does not apply", "cwru_6205_inner"]);
+    assert_clean_failure(&run(&["confusion", "--extra", "--hide", "load_zone+slip"]), &["--extra", "--hide"]);
+    let d = tempfile::tempdir().unwrap();
+    let json = d.path().join("extra.json");
+    let out = run(&["confusion", "--preset", "cwru_6205_inner", "--extra", "--effect", "load_zone", "--seed", "7401", "--snr-db", "20", "--duration-s", "1", "--fit-duration-s", "0.8", "--json", json.to_str().unwrap()]);
+    let stdout = &out.stdout;
+    assert_eq!(out.code, 0, "{stdout}\n{}", out.stderr);
+    let row = stdout.lines().find(|l| l.starts_with("| load_zone |")).unwrap_or_else(|| panic!("{stdout}"));
+    assert!(row.contains("| load_zone: contradicted (") && row.contains("fault of de: needed"), "{row}");
+    assert!(stdout.contains("the extra effect read contradicted: 1/1;"), "{stdout}");
+    let cases: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(cases[0]["extra"], "load_zone");
+    assert_eq!(cases[0]["removals"].as_array().map(|a| a.len()), Some(2), "{cases}");
+}
+
 #[test]
 fn diagnose_refuses_a_round_count_outside_1_to_20_before_any_work() {
     // Zero rounds used to run one silently; 21 or more is refused as a batch job does.

@@ -176,6 +176,39 @@ fn a_noise_trial_expects_exactly_the_evaluations_it_makes() {
     assert_eq!(calls, expected);
 }
 
+/// An extra-effect case (`confusion --extra`): the model holds a 300 N load zone the machine
+/// lacks (drawn as the hidden-effect case of the same seed is, then moved from the measurement
+/// to the model); its removal trial reads it contradicted and the fault needed.
+#[test]
+fn an_effect_the_machine_lacks_reads_contradicted_in_an_extra_effect_case() {
+    use twinscope::compare::hidden::{make_case_set, make_extra_case, run_extra_case, CaseSetting};
+    use twinscope::compare::removal::{ModelPart, RemovalReading};
+    let base = model::preset("cwru_6205_inner").unwrap();
+    let setting = CaseSetting { value: Some(300.0), snr_db: Some(20.0) };
+    // The draw is the hidden-effect case's, the load zone moved from the measurement to the model.
+    let (truth, model_m, parameter, snr) = make_extra_case(&base, EffectKind::LoadZone, 7401, &setting);
+    let (hidden_truth, hidden_model, hidden_parameters, hidden_snr) = make_case_set(&base, &[EffectKind::LoadZone], 7401, &setting);
+    assert_eq!((parameter, snr), (hidden_parameters.first().copied(), hidden_snr));
+    assert_eq!(parameter, Some((Param::RadialLoadN, 300.0)));
+    assert!(!truth.effects.is_on(EffectKind::LoadZone) && model_m.effects.is_on(EffectKind::LoadZone));
+    assert_eq!(model_m.effects.load_zone, hidden_truth.effects.load_zone);
+    assert_eq!(Param::ResonanceHz.get(&truth), Param::ResonanceHz.get(&hidden_truth), "the same perturbed baseline");
+    assert_eq!(model_m.bearings, hidden_model.bearings);
+    assert!(model_m.fitted_effects.is_empty(), "the extra effect keeps its drawn strength");
+
+    let (_, _, opts) = quick_case(0, vec![EffectKind::Slip]);
+    let r = run_extra_case(&base, EffectKind::LoadZone, 7401, 1.0, &setting, &opts).unwrap();
+    for t in &r.removals {
+        eprintln!("{:?}: {}", t.reading, t.summary);
+    }
+    let t = r.extra_trial().expect("the load zone's removal trial");
+    assert_eq!(t.part, ModelPart::Effect(EffectKind::LoadZone));
+    assert_eq!(t.reading, RemovalReading::Contradicted, "{}", t.summary);
+    let fault = r.removals.iter().find(|t| matches!(t.part, ModelPart::Fault { .. })).expect("the fault's trial");
+    assert_eq!(fault.reading, RemovalReading::Needed, "{}", fault.summary);
+    assert!(run_extra_case(&base, EffectKind::Noise, 7401, 1.0, &setting, &opts).is_err(), "the noise is no part of a model");
+}
+
 /// Removal trials, the converse of the search (`LoopOptions::removal_trials`): a model
 /// holding an inner-race fault that the "measurement" lacks (the healthy 6205 with its load
 /// zone, another seed) reads the fault contradicted; the same model against a measurement that

@@ -509,6 +509,70 @@ fn final_effect_values(history: &[Round], calibrated: &[(Param, f64)]) -> Vec<(P
         .collect()
 }
 
+/// A case the other way round: the model holds `extra`, which the machine lacks. The draw is
+/// the hidden-effect case's ([`make_case_set`] with `extra` hidden, so seed for seed the same
+/// perturbed baseline, strength and SNR); then the effect as drawn is put in the model and
+/// taken out of the measurement machine. The model's effect keeps that strength (it is not in
+/// [`Machine::fitted_effects`], so no calibration shrinks it): a model given a wrong effect,
+/// as a user or a false claim gives one. Returns `(measurement machine, model machine, the
+/// effect's drawn parameter, SNR dB)`. Not for `noise`, which is no part of a model
+/// ([`super::removal::removable_parts`]).
+pub fn make_extra_case(base: &Machine, extra: EffectKind, seed: u64, setting: &CaseSetting) -> (Machine, Machine, Option<(Param, f64)>, f64) {
+    let (mut truth, mut model_m, params, snr) = make_case_set(base, &[extra], seed, setting);
+    model_m.effects.copy_from(&truth.effects, extra);
+    truth.effects.disable(extra);
+    (truth, model_m, params.first().copied(), snr)
+}
+
+/// The outcome of an extra-effect case ([`run_extra_case`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExtraCaseResult {
+    /// The effect the model holds and the machine lacks.
+    pub extra: EffectKind,
+    /// Its drawn parameter, if any.
+    pub parameter: Option<(Param, f64)>,
+    /// Measurement SNR, dB.
+    pub snr_db: f64,
+    /// What the search chose (None: "nothing significant is missing").
+    pub chosen: Option<EffectKind>,
+    /// The search's verdict.
+    pub verdict: String,
+    /// The removal trials of the model (the extra effect's among them).
+    pub removals: Vec<super::removal::RemovalTrial>,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+impl ExtraCaseResult {
+    /// The removal trial that takes the extra effect out: its own, or that of the effect it
+    /// acts through when that is on (a contact nonlinearity goes with its load zone).
+    pub fn extra_trial(&self) -> Option<&super::removal::RemovalTrial> {
+        use super::removal::ModelPart;
+        self.removals.iter().find(|t| t.part == ModelPart::Effect(self.extra)).or_else(|| {
+            let carrier = self.extra.acts_through()?;
+            self.removals.iter().find(|t| t.part == ModelPart::Effect(carrier))
+        })
+    }
+}
+
+/// Runs an extra-effect case ([`make_extra_case`]): simulate the measurement (`duration_s`),
+/// diagnose the model that holds `extra` with its removal trials
+/// ([`LoopOptions::removal_trials`], on whatever `opts` says). The removal trials must read the
+/// extra effect contradicted, unless the data cannot tell it (too weak against the noise).
+pub fn run_extra_case(base: &Machine, extra: EffectKind, seed: u64, duration_s: f64, setting: &CaseSetting, opts: &LoopOptions) -> Result<ExtraCaseResult, LoopError> {
+    if extra == EffectKind::Noise {
+        return Err(base.invalid("effects.noise", "extra", "an extra-effect case needs an effect that is a part of the model; the noise is the record's").into());
+    }
+    let t0 = std::time::Instant::now();
+    let (mut truth, model_m, parameter, snr_db) = make_extra_case(base, extra, seed, setting);
+    truth.duration_s = duration_s;
+    let measured = model::simulate(&truth)?;
+    let reference = Reference::new(&measured, &opts.compare)?;
+    let opts = LoopOptions { removal_trials: true, ..opts.clone() };
+    let (_, d) = diagnose_with(&model_m, &reference, &opts, &super::calibrate::LoopProgress::new(&|_, _| true))?;
+    Ok(ExtraCaseResult { extra, parameter, snr_db, chosen: d.best, verdict: d.verdict, removals: d.removals, seconds: t0.elapsed().as_secs_f64() })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

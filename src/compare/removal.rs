@@ -373,3 +373,16 @@ pub fn most_contradicted(removals: &[RemovalTrial]) -> Option<&RemovalTrial> {
         _ => Some(t),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_trial_in_a_table_cell_names_its_part_reading_and_share() {
+        let trial = |part: ModelPart, reading: RemovalReading, explained: f64| RemovalTrial { label: String::new(), part, objective_with: 1.0, objective_without: 1.0, envelope_nrmse_with: 1.0, envelope_nrmse_without: 1.0, floor_objective: 0.5, tie_width: 0.1, realisations: 4, explained, reading, calibration: Fit::default(), summary: String::new() };
+        assert_eq!(trial(ModelPart::Fault { bearing: "de".into() }, RemovalReading::Needed, -0.854).cell(), "fault of de: needed (-85 %)");
+        assert_eq!(trial(ModelPart::Effect(EffectKind::LoadZone), RemovalReading::Contradicted, 0.26).cell(), "load_zone: contradicted (26 %)");
+        assert_eq!(trial(ModelPart::Effect(EffectKind::GearMesh), RemovalReading::CannotTell, f64::NAN).cell(), "gear_mesh: cannot tell (-)");
+    }
+}

@@ -468,6 +468,26 @@ impl Effects {
         }
     }
 
+    /// Sets effect `k` as it is in `other`: on with `other`'s parameters, or off.
+    pub fn copy_from(&mut self, other: &Effects, k: EffectKind) {
+        match k {
+            EffectKind::LoadZone => self.load_zone = other.load_zone.clone(),
+            EffectKind::Slip => self.slip = other.slip.clone(),
+            EffectKind::CasingModes => self.casing_modes = other.casing_modes.clone(),
+            EffectKind::GearMesh => self.gear_mesh = other.gear_mesh.clone(),
+            EffectKind::ToothFault => self.tooth_fault = other.tooth_fault.clone(),
+            EffectKind::SpeedFluctuation => self.speed_fluctuation = other.speed_fluctuation.clone(),
+            EffectKind::SensorResponse => self.sensor_response = other.sensor_response.clone(),
+            EffectKind::Unbalance => self.unbalance = other.unbalance.clone(),
+            EffectKind::Misalignment => self.misalignment = other.misalignment.clone(),
+            EffectKind::ExtendedFault => self.extended_fault = other.extended_fault.clone(),
+            EffectKind::PathModulation => self.path_modulation = other.path_modulation.clone(),
+            EffectKind::BeltDrive => self.belt_drive = other.belt_drive.clone(),
+            EffectKind::NonlinearContact => self.nonlinear_contact = other.nonlinear_contact.clone(),
+            EffectKind::Noise => self.noise = other.noise.clone(),
+        }
+    }
+
     /// The effects that are on.
     pub fn enabled(&self) -> Vec<EffectKind> {
         EffectKind::ALL.into_iter().filter(|k| self.is_on(*k)).collect()
