@@ -1175,6 +1175,7 @@ fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: 
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;
