@@ -1138,17 +1138,17 @@ fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: 
             anyhow::bail!("--snr-db {snr}: give a measurement SNR between -20 and 60 dB");
         }
     }
-    println!("| in the model, not the machine | its parameter | SNR dB | its removal trial: objective with → without (tie width; floor) | reading (share of the error above the floor) | the other parts | search's answer | s |");
+    println!("| in the model, not the machine | its parameter | SNR dB | its removal trial (objective with → without; share of the error above the floor) | tie width; floor | the other parts | search's answer | s |");
     println!("|---|---|---:|---|---|---|---|---:|");
     let mut results: Vec<hidden::ExtraCaseResult> = Vec::new();
     for (i, k) in kinds.iter().enumerate() {
         let r = hidden::run_extra_case(&base, *k, seed + i as u64, duration_s, &setting, &opts)?;
         let t = r.extra_trial();
-        let numbers = t.filter(|t| t.objective_with.is_finite()).map_or("-".to_string(), |t| format!("{:.2} → {:.2} (±{:.2}; {:.2})", t.objective_with, t.objective_without, t.tie_width, t.floor_objective));
-        let reading = t.map_or("not judged".to_string(), |t| t.cell());
+        let numbers = t.filter(|t| t.objective_with.is_finite()).map_or("-".to_string(), |t| format!("±{:.2}; {:.2}", t.tie_width, t.floor_objective));
+        let reading = t.map_or("no trial".to_string(), |t| t.cell());
         let others = r.removals.iter().filter(|o| Some(*o) != t).map(|o| o.cell()).collect::<Vec<_>>().join("; ");
         println!(
-            "| {} | {} | {:.1} | {numbers} | {reading} | {} | {} | {:.0} |",
+            "| {} | {} | {:.1} | {reading} | {numbers} | {} | {} | {:.0} |",
             k.name(),
             r.parameter.map(|pv| effect_values_text(&[pv])).unwrap_or_else(|| "-".into()),
             r.snr_db,
@@ -1241,7 +1241,7 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         Ok(())
     };
     // With --removal-trials a last column reads each part of the starting model.
-    let (removal_head, removal_rule) = if opts.removal_trials { (" removal trials (share of the error above the floor) |", "---|") } else { ("", "") };
+    let (removal_head, removal_rule) = if opts.removal_trials { (" removal trials (objective with → without each part) |", "---|") } else { ("", "") };
     if !cases.is_empty() {
         println!("| hidden | true parameter | SNR dB | objective / floor | chosen | rank of hidden | hidden explains (% above floor) | envelope NRMSE before → after (%) | calibrated objective / true machine's (envelope NRMSE %) / without the hidden | recoverable | hidden's trial recovers (%) | s |{removal_head}");
         println!("|---|---|---:|---:|---|---:|---:|---|---|---|---:|---:|{removal_rule}");
