@@ -135,7 +135,7 @@ fn confusion_extra_reads_an_effect_the_machine_lacks_and_refuses_what_is_no_part
     assert!(stdout.contains("the extra effect read contradicted: 1/1;"), "{stdout}");
     let cases: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(cases[0]["extra"], "load_zone");
-    assert_eq!(cases[0]["removals"].as_array().map(|a| a.len()), Some(2), "{cases}");
+    assert_eq!(cases[0]["removals"].as_array().map(|a| a.len()), Some(3), "the fault, the load zone, its contact nonlinearity alone: {cases}");
 }
 
 #[test]
@@ -316,14 +316,14 @@ fn compare_and_diagnose_bring_a_faster_record_down_to_the_models_rate_and_say_so
     assert!(r.stderr.contains("sampled at 48000 Hz, is compared at the model's 12000 Hz"), "{}", r.stderr);
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&dj).unwrap()).unwrap();
     assert_eq!(v["compared_at_hz"], serde_json::json!(12000.0));
-    // The healthy preset's one part to take out is its load zone (with the contact
-    // nonlinearity acting through it; the noise is the record's): one removal trial, printed
-    // with its reading and saved.
-    assert!(r.stdout.contains("removal trials (last round") && r.stdout.contains("load_zone (with nonlinear_contact, which acts through it)"), "{}", r.stdout);
+    // The healthy preset's parts to take out are its load zone (with the contact nonlinearity
+    // acting through it) and that nonlinearity alone (the noise is the record's): two removal
+    // trials, printed with their readings and saved.
+    assert!(r.stdout.contains("removal trials (last round") && r.stdout.contains("load_zone (with nonlinear_contact, which acts through it)") && r.stdout.contains("nonlinear_contact (alone, load_zone kept)"), "{}", r.stdout);
     let removals = v["diagnosis"]["removals"].as_array().expect("removals in the JSON");
-    assert_eq!(removals.len(), 1, "{removals:?}");
-    assert_eq!(removals[0]["part"], serde_json::json!({ "effect": "load_zone" }));
-    assert!(["contradicted", "cannot_tell", "needed"].contains(&removals[0]["reading"].as_str().unwrap()));
+    assert_eq!(removals.len(), 2, "{removals:?}");
+    assert_eq!((&removals[0]["part"], &removals[1]["part"]), (&serde_json::json!({ "effect": "load_zone" }), &serde_json::json!({ "effect": "nonlinear_contact" })));
+    assert!(removals.iter().all(|t| ["contradicted", "cannot_tell", "needed"].contains(&t["reading"].as_str().unwrap())));
 }
 
 #[test]

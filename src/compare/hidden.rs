@@ -544,14 +544,10 @@ pub struct ExtraCaseResult {
 }
 
 impl ExtraCaseResult {
-    /// The removal trial that takes the extra effect out: its own, or that of the effect it
-    /// acts through when that is on (a contact nonlinearity goes with its load zone).
+    /// The removal trial that takes the extra effect out alone (a contact nonlinearity with its
+    /// load zone kept: [`super::removal::removable_parts`]).
     pub fn extra_trial(&self) -> Option<&super::removal::RemovalTrial> {
-        use super::removal::ModelPart;
-        self.removals.iter().find(|t| t.part == ModelPart::Effect(self.extra)).or_else(|| {
-            let carrier = self.extra.acts_through()?;
-            self.removals.iter().find(|t| t.part == ModelPart::Effect(carrier))
-        })
+        self.removals.iter().find(|t| t.part == super::removal::ModelPart::Effect(self.extra))
     }
 }
 
