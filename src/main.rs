@@ -1107,19 +1107,33 @@ fn oracle_cell(o: &twinscope::compare::hidden::Oracle, model_objective: f64) -> 
     format!("{model_objective:.2} / {truth:.2} ± {sd:.2} ({:.1}) / {without}", o.truth_envelope_nrmse())
 }
 
-#[allow(clippy::too_many_arguments)]
-/// `confusion --extra`: each effect put in the model and left out of the measurement, read by
-/// the removal trials ([`twinscope::compare::hidden::run_extra_case`]).
-fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: u64, setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
-    use twinscope::compare::diagnose::effect_values_text;
-    use twinscope::compare::hidden;
-    use twinscope::compare::removal::RemovalReading;
-    use twinscope::model::{self, EffectKind, Effects};
-    let mut base = model::preset(preset)?;
+/// The base machine of a `confusion` table: the preset, with `--substeps` applied and checked.
+fn confusion_base(preset: &str, step: &StepArgs) -> Result<twinscope::model::Machine> {
+    let mut base = twinscope::model::preset(preset)?;
     if let Some(n) = step.substeps {
         step.apply(&mut base);
         base.validate().with_context(|| format!("--substeps {n}"))?;
     }
+    Ok(base)
+}
+
+/// `--snr-db` of a `confusion` table, refused before any work when out of range.
+fn check_snr_db(snr_db: Option<f64>) -> Result<()> {
+    match snr_db {
+        Some(snr) if !(snr.is_finite() && (-20.0..=60.0).contains(&snr)) => anyhow::bail!("--snr-db {snr}: give a measurement SNR between -20 and 60 dB"),
+        _ => Ok(()),
+    }
+}
+
+/// `confusion --extra`: each effect put in the model and left out of the measurement, read by
+/// the removal trials ([`twinscope::compare::hidden::run_extra_case`]).
+#[allow(clippy::too_many_arguments)]
+fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: u64, setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
+    use twinscope::compare::diagnose::effect_values_text;
+    use twinscope::compare::hidden;
+    use twinscope::compare::removal::RemovalReading;
+    use twinscope::model::{EffectKind, Effects};
+    let base = confusion_base(preset, step)?;
     let kinds: Vec<EffectKind> = if effects.is_empty() {
         EffectKind::ALL.into_iter().filter(|k| *k != EffectKind::Noise && Effects::applicable(*k, &base)).collect()
     } else {
@@ -1133,11 +1147,7 @@ fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: 
             anyhow::bail!("--extra --effect {}: does not apply to preset {preset}", k.name());
         }
     }
-    if let Some(snr) = setting.snr_db {
-        if !(snr.is_finite() && (-20.0..=60.0).contains(&snr)) {
-            anyhow::bail!("--snr-db {snr}: give a measurement SNR between -20 and 60 dB");
-        }
-    }
+    check_snr_db(setting.snr_db)?;
     println!("| in the model, not the machine | its parameter | SNR dB | its removal trial (objective with → without; share of the error above the floor) | tie width; floor | the other parts | search's answer | s |");
     println!("|---|---|---:|---|---|---|---|---:|");
     let mut results: Vec<hidden::ExtraCaseResult> = Vec::new();
@@ -1179,12 +1189,8 @@ fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: 
 fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Option<usize>, controls: usize, duration_s: f64, seed: u64, values: &[f64], setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;
-    use twinscope::model::{self, EffectKind, Effects};
-    let mut base = model::preset(preset)?;
-    if let Some(n) = step.substeps {
-        step.apply(&mut base);
-        base.validate().with_context(|| format!("--substeps {n}"))?;
-    }
+    use twinscope::model::{EffectKind, Effects};
+    let base = confusion_base(preset, step)?;
     let parse = |n: &str| EffectKind::parse_named(n.trim()).map_err(anyhow::Error::msg);
     let kinds: Vec<EffectKind> = if effects.is_empty() && hide.is_empty() {
         EffectKind::ALL.into_iter().filter(|k| Effects::applicable(*k, &base)).collect()
@@ -1206,13 +1212,9 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
             Ok(ks)
         })
         .collect::<Result<_>>()?;
-    if let Some(snr) = setting.snr_db {
-        if !(snr.is_finite() && (-20.0..=60.0).contains(&snr)) {
-            anyhow::bail!("--snr-db {snr}: give a measurement SNR between -20 and 60 dB");
-        }
-        if kinds.contains(&EffectKind::Noise) || groups.iter().flatten().any(|k| *k == EffectKind::Noise) {
-            anyhow::bail!("--snr-db: not with `noise` hidden, whose own value is the SNR (give it with --value)");
-        }
+    check_snr_db(setting.snr_db)?;
+    if setting.snr_db.is_some() && (kinds.contains(&EffectKind::Noise) || groups.iter().flatten().any(|k| *k == EffectKind::Noise)) {
+        anyhow::bail!("--snr-db: not with `noise` hidden, whose own value is the SNR (give it with --value)");
     }
     // (hidden effect, fixed value, seed) of each single case: a sweep keeps one seed.
     let mut cases: Vec<(Option<EffectKind>, Option<f64>, u64)> = Vec::new();
@@ -1280,8 +1282,9 @@ fn confusion_cmd(preset: &str, effects: &[String], hide: &[String], rounds: Opti
         if opts.removal_trials {
             // Every part of a starting model is in its true machine: a contradicted one is false.
             let judged: usize = results.iter().map(|r| r.removals.len()).sum();
-            let contradicted: Vec<String> = results.iter().flat_map(|r| r.removals.iter().filter(|t| t.reading == twinscope::compare::removal::RemovalReading::Contradicted).map(move |t| format!("{} ({})", t.cell(), r.hidden.map_or("control", |k| k.name())))).collect();
-            let needed = results.iter().flat_map(|r| &r.removals).filter(|t| t.reading == twinscope::compare::removal::RemovalReading::Needed).count();
+            use twinscope::compare::removal::RemovalReading;
+            let contradicted: Vec<String> = results.iter().flat_map(|r| r.removals.iter().filter(|t| t.reading == RemovalReading::Contradicted).map(move |t| format!("{} ({})", t.cell(), r.hidden.map_or("control", |k| k.name())))).collect();
+            let needed = results.iter().flat_map(|r| &r.removals).filter(|t| t.reading == RemovalReading::Needed).count();
             println!("removal trials: {judged} parts judged, {needed} needed, {} contradicted (each part is in the true machine, so a contradiction is false){}", contradicted.len(), if contradicted.is_empty() { String::new() } else { format!(": {}", contradicted.join("; ")) });
         }
         let recoverable: Vec<&hidden::CaseResult> = results.iter().filter(|r| r.recoverable()).collect();
