@@ -395,6 +395,11 @@ struct SearchArgs {
     /// does not have is otherwise hidden by the calibration. One calibration more per part
     #[arg(long)]
     removal_trials: bool,
+    /// With --removal-trials, in a loop: a round that reads a part contradicted takes it out
+    /// first and sets aside the addition its search chose (experimental, session 75). Without
+    /// it a contradicted part is taken out only in a round that adds nothing.
+    #[arg(long, requires = "removal_trials")]
+    take_out_first: bool,
     /// Do not start the best three stage-1 trials (those stage 2 re-fits) also from the
     /// uncalibrated values. By default they are (their effect scanned, then the plain trial's
     /// fit) and the better fit goes on to stage 2: for a calibration that moved a base
@@ -532,7 +537,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, removal_trials: self.removal_trials, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, removal_trials: self.removal_trials, take_out_first: self.take_out_first, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         if let Some(w) = self.domain_weights {
@@ -610,7 +615,7 @@ fn run(cli: Cli, command: &clap::Command, matches: &clap::ArgMatches) -> Result<
         Some(Command::Confusion { preset, effects, hide, rounds, controls, duration_s, seed, values, snr_db, extra, json, step, search }) => {
             let sweep = twinscope::compare::hidden::CaseSetting { value: None, snr_db };
             if extra {
-                return extra_confusion_cmd(&preset, &effects, duration_s, seed, sweep, &step, json.as_deref(), search.options());
+                return extra_confusion_cmd(&preset, &effects, duration_s, seed, rounds.unwrap_or(1), sweep, &step, json.as_deref(), search.options());
             }
             confusion_cmd(&preset, &effects, &hide, rounds, controls, duration_s, seed, &values, sweep, &step, json.as_deref(), search.options())
         }
@@ -1128,7 +1133,7 @@ fn check_snr_db(snr_db: Option<f64>) -> Result<()> {
 /// `confusion --extra`: each effect put in the model and left out of the measurement, read by
 /// the removal trials ([`twinscope::compare::hidden::run_extra_case`]).
 #[allow(clippy::too_many_arguments)]
-fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: u64, setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
+fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: u64, rounds: usize, setting: twinscope::compare::hidden::CaseSetting, step: &StepArgs, json: Option<&Path>, opts: LoopOptions) -> Result<()> {
     use twinscope::compare::diagnose::effect_values_text;
     use twinscope::compare::hidden;
     use twinscope::compare::removal::RemovalReading;
@@ -1148,17 +1153,20 @@ fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: 
         }
     }
     check_snr_db(setting.snr_db)?;
-    println!("| in the model, not the machine | its parameter | SNR dB | its removal trial (objective with → without; share of the error above the floor) | tie width; floor | the other parts | search's answer | s |");
-    println!("|---|---|---:|---|---|---|---|---:|");
+    let looped = rounds > 1;
+    let (loop_head, loop_rule) = if looped { (" the loop: each round's change; the last round's objective / floor (envelope NRMSE %) |", "---|") } else { ("", "") };
+    println!("| in the model, not the machine | its parameter | SNR dB | its removal trial (objective with → without; share of the error above the floor) | tie width; floor | the other parts | search's answer |{loop_head} s |");
+    println!("|---|---|---:|---|---|---|---|{loop_rule}---:|");
     let mut results: Vec<hidden::ExtraCaseResult> = Vec::new();
     for (i, k) in kinds.iter().enumerate() {
-        let r = hidden::run_extra_case(&base, *k, seed + i as u64, duration_s, &setting, &opts)?;
+        let r = hidden::run_extra_case(&base, *k, seed + i as u64, duration_s, rounds, &setting, &opts)?;
         let t = r.extra_trial();
         let numbers = t.filter(|t| t.objective_with.is_finite()).map_or("-".to_string(), |t| format!("±{:.2}; {:.2}", t.tie_width, t.floor_objective));
         let reading = t.map_or("no trial".to_string(), |t| t.cell());
         let others = r.removals.iter().filter(|o| Some(*o) != t).map(|o| o.cell()).collect::<Vec<_>>().join("; ");
+        let loop_cell = if looped { format!(" {} |", extra_loop_cell(&r.history)) } else { String::new() };
         println!(
-            "| {} | {} | {:.1} | {reading} | {numbers} | {} | {} | {:.0} |",
+            "| {} | {} | {:.1} | {reading} | {numbers} | {} | {} |{loop_cell} {:.0} |",
             k.name(),
             r.parameter.map(|pv| effect_values_text(&[pv])).unwrap_or_else(|| "-".into()),
             r.snr_db,
@@ -1182,7 +1190,31 @@ fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: 
         others_contradicted.len(),
         if others_contradicted.is_empty() { String::new() } else { format!(": {}", others_contradicted.join("; ")) }
     );
+    if looped {
+        let clean = results.iter().filter(|r| r.extra_taken_out() && r.applied().is_empty()).count();
+        let claims: Vec<String> = results.iter().flat_map(|r| r.applied().into_iter().map(move |k| format!("{} (beside {})", k.name(), r.extra.name()))).collect();
+        println!(
+            "loops that took the extra effect out and end with nothing applied: {clean}/{}; effects left applied (false claims): {}{}",
+            results.len(),
+            claims.len(),
+            if claims.is_empty() { String::new() } else { format!(": {}", claims.join("; ")) }
+        );
+    }
     Ok(())
+}
+
+/// An extra-effect loop in a table cell: each round's change (`r1: took out casing_modes
+/// (set aside: misalignment)`), then the last round's objective / floor and envelope NRMSE.
+fn extra_loop_cell(history: &[twinscope::compare::diagnose::Round]) -> String {
+    let rounds: Vec<String> = history
+        .iter()
+        .map(|r| {
+            let aside = r.set_aside.map_or(String::new(), |k| format!(" (set aside: {})", k.name()));
+            format!("r{}: {}{aside}", r.round, r.change_with_values("nothing significant"))
+        })
+        .collect();
+    let last = history.last().map_or("-".to_string(), |r| format!("{:.2} / {:.2} ({:.1})", r.objective, r.floor_objective, r.envelope_nrmse));
+    format!("{}; {last}", rounds.join(", "))
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -197,7 +197,7 @@ fn an_effect_the_machine_lacks_reads_contradicted_in_an_extra_effect_case() {
     assert!(model_m.fitted_effects.is_empty(), "the extra effect keeps its drawn strength");
 
     let (_, _, opts) = quick_case(0, vec![EffectKind::Slip]);
-    let r = run_extra_case(&base, EffectKind::LoadZone, 7401, 1.0, &setting, &opts).unwrap();
+    let r = run_extra_case(&base, EffectKind::LoadZone, 7401, 1.0, 1, &setting, &opts).unwrap();
     for t in &r.removals {
         eprintln!("{:?}: {}", t.reading, t.summary);
     }
@@ -206,7 +206,7 @@ fn an_effect_the_machine_lacks_reads_contradicted_in_an_extra_effect_case() {
     assert_eq!(t.reading, RemovalReading::Contradicted, "{}", t.summary);
     let fault = r.removals.iter().find(|t| matches!(t.part, ModelPart::Fault { .. })).expect("the fault's trial");
     assert_eq!(fault.reading, RemovalReading::Needed, "{}", fault.summary);
-    assert!(run_extra_case(&base, EffectKind::Noise, 7401, 1.0, &setting, &opts).is_err(), "the noise is no part of a model");
+    assert!(run_extra_case(&base, EffectKind::Noise, 7401, 1.0, 1, &setting, &opts).is_err(), "the noise is no part of a model");
 }
 
 /// Removal trials, the converse of the search (`LoopOptions::removal_trials`): a model

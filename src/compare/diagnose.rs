@@ -1727,6 +1727,14 @@ pub struct Round {
     /// the next round starts from the round's machine without it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub taken_out: Option<super::removal::TakenOut>,
+    /// With [`LoopOptions::take_out_first`]: the addition the round's search chose and did not
+    /// apply, because the round took out a part the measurement contradicts first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub set_aside: Option<EffectKind>,
+    /// With `LoopOptions::removal_trials`: the removal trials of the round's model
+    /// ([`Diagnosis::removals`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub removals: Vec<super::removal::RemovalTrial>,
 }
 
 impl Round {
@@ -1764,6 +1772,7 @@ impl Round {
             unbent_when_short: d.short_plain.is_some(),
             top_second_starts_won: d.top_second_starts_won.clone(),
             strength_range: d.strength_range.clone(),
+            removals: d.removals.clone(),
             ..Default::default()
         }
     }
@@ -1946,12 +1955,16 @@ pub fn exclude_candidates(opts: &mut LoopOptions, m: &Machine, out: &[EffectKind
 }
 
 /// The effects a loop's history leaves applied, in the order applied: every round's `applied`
-/// less those a later round `removed`.
+/// less those a later round `removed` or took out ([`Round::taken_out`]).
 pub fn applied_effects(history: &[Round]) -> Vec<EffectKind> {
     let mut on: Vec<EffectKind> = Vec::new();
     for r in history {
         if let Some(k) = r.removed {
             on.retain(|x| *x != k);
+        }
+        // An effect a removal trial took out goes with those acting through it.
+        if let Some(super::removal::TakenOut { part: super::removal::ModelPart::Effect(k), .. }) = &r.taken_out {
+            on.retain(|x| x != k && x.acts_through() != Some(*k));
         }
         if let Some(k) = r.applied {
             on.push(k);
@@ -2173,7 +2186,8 @@ pub fn check_loop_rounds(n: usize) -> Result<(), super::CompareError> {
 /// removal trials contradict a part of its model ([`super::removal`]) takes out the most
 /// contradicted one, before any replacement, when a round is left: the next round starts from
 /// the round's uncalibrated machine without it (the model its removal trial calibrated),
-/// recorded as [`Round::taken_out`]. A kept replacement's diagnosis, made while judging it, has
+/// recorded as [`Round::taken_out`]. With [`LoopOptions::take_out_first`] a round that chose
+/// an addition does the same, the addition recorded as [`Round::set_aside`] and not applied. A kept replacement's diagnosis, made while judging it, has
 /// no removal trials.
 ///
 /// With [`LoopOptions::unbend_when_stuck`] the round's own diagnosis may be searched again
@@ -2203,6 +2217,22 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
         };
         let env = d.envelope_nrmse().unwrap_or(f64::INFINITY);
         let mut round = Round { applied: d.best, ..Round::of_diagnosis(r, current.effects.enabled(), &d, env) };
+        // A part of the model the measurement contradicts is taken out before any replacement,
+        // and with `take_out_first` before any addition: the next round starts from the
+        // round's machine without it.
+        let contradicted = super::removal::most_contradicted(&d.removals).filter(|_| r < rounds && (d.best.is_none() || opts.take_out_first));
+        if let Some((t, next)) = contradicted.and_then(|t| t.part.removed_from(&current).ok().map(|next| (t, next))) {
+            round.applied = None;
+            round.set_aside = d.best;
+            round.taken_out = Some(super::removal::TakenOut { part: t.part.clone(), label: t.label.clone(), explained: t.explained });
+            let first = d.best.map_or(String::new(), |k| format!(" before adding {}", k.name()));
+            round.verdict = format!("{}; took out {}{first}: {}", d.verdict, t.label, t.summary);
+            opts.refit_effects.retain(|k| next.effects.is_on(*k));
+            history.push(round);
+            current = next;
+            last = Some(d);
+            continue;
+        }
         if let Some(k) = d.best {
             let mut next = cal.clone();
             match d.trials.iter().find(|t| t.effect == k) {
@@ -2223,19 +2253,6 @@ pub fn run_loop(m: &Machine, measured: &Signal, rounds: usize, opts: &LoopOption
             current = next;
             last = Some(d);
             continue;
-        }
-        // A part of the model the measurement contradicts is taken out before any replacement:
-        // the next round starts from the round's machine without it.
-        if let Some(t) = super::removal::most_contradicted(&d.removals).filter(|_| r < rounds) {
-            if let Ok(next) = t.part.removed_from(&current) {
-                round.taken_out = Some(super::removal::TakenOut { part: t.part.clone(), label: t.label.clone(), explained: t.explained });
-                round.verdict = format!("{}; took out {}: {}", d.verdict, t.label, t.summary);
-                opts.refit_effects.retain(|k| next.effects.is_on(*k));
-                history.push(round);
-                current = next;
-                last = Some(d);
-                continue;
-            }
         }
         if r < rounds && stuck(&d, &opts) {
             let mut kept: Option<(ReplacementJudgement, Replacement)> = None;

@@ -539,6 +539,10 @@ pub struct ExtraCaseResult {
     pub verdict: String,
     /// The removal trials of the model (the extra effect's among them).
     pub removals: Vec<super::removal::RemovalTrial>,
+    /// With more than one round: the loop's rounds, the first one's diagnosis being the one
+    /// above ([`run_loop`]); empty for a single search.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub history: Vec<Round>,
     /// Wall time, s.
     pub seconds: f64,
 }
@@ -549,13 +553,28 @@ impl ExtraCaseResult {
     pub fn extra_trial(&self) -> Option<&super::removal::RemovalTrial> {
         self.removals.iter().find(|t| t.part == super::removal::ModelPart::Effect(self.extra))
     }
+
+    /// With a loop: whether a round took the extra effect out (alone, or with what acts
+    /// through it) and no later round put it back.
+    pub fn extra_taken_out(&self) -> bool {
+        let taken_out = self.history.iter().rposition(|r| r.taken_out.as_ref().is_some_and(|t| t.part == super::removal::ModelPart::Effect(self.extra)));
+        taken_out.is_some_and(|i| self.history[i + 1..].iter().all(|r| r.applied != Some(self.extra) && r.applied_with != Some(self.extra)))
+    }
+
+    /// With a loop: the effects it applied, every one a false claim (the machine has only what
+    /// the model had without the extra effect).
+    pub fn applied(&self) -> Vec<EffectKind> {
+        super::diagnose::applied_effects(&self.history)
+    }
 }
 
 /// Runs an extra-effect case ([`make_extra_case`]): simulate the measurement (`duration_s`),
 /// diagnose the model that holds `extra` with its removal trials
 /// ([`LoopOptions::removal_trials`], on whatever `opts` says). The removal trials must read the
 /// extra effect contradicted, unless the data cannot tell it (too weak against the noise).
-pub fn run_extra_case(base: &Machine, extra: EffectKind, seed: u64, duration_s: f64, setting: &CaseSetting, opts: &LoopOptions) -> Result<ExtraCaseResult, LoopError> {
+/// With `rounds` above 1 the model goes through [`run_loop`] instead, which should take the
+/// extra effect out and apply nothing ([`ExtraCaseResult::history`]).
+pub fn run_extra_case(base: &Machine, extra: EffectKind, seed: u64, duration_s: f64, rounds: usize, setting: &CaseSetting, opts: &LoopOptions) -> Result<ExtraCaseResult, LoopError> {
     if extra == EffectKind::Noise {
         return Err(base.invalid("effects.noise", "extra", "an extra-effect case needs an effect that is a part of the model; the noise is the record's").into());
     }
@@ -563,10 +582,15 @@ pub fn run_extra_case(base: &Machine, extra: EffectKind, seed: u64, duration_s: 
     let (mut truth, model_m, parameter, snr_db) = make_extra_case(base, extra, seed, setting);
     truth.duration_s = duration_s;
     let measured = model::simulate(&truth)?;
-    let reference = Reference::new(&measured, &opts.compare)?;
     let opts = LoopOptions { removal_trials: true, ..opts.clone() };
+    if rounds > 1 {
+        let (_, history, _) = run_loop(&model_m, &measured, rounds, &opts, &|_, _| true)?;
+        let first = history.first().cloned().unwrap_or_default();
+        return Ok(ExtraCaseResult { extra, parameter, snr_db, chosen: first.applied.or(first.set_aside), verdict: first.verdict, removals: first.removals, history, seconds: t0.elapsed().as_secs_f64() });
+    }
+    let reference = Reference::new(&measured, &opts.compare)?;
     let (_, d) = diagnose_with(&model_m, &reference, &opts, &super::calibrate::LoopProgress::new(&|_, _| true))?;
-    Ok(ExtraCaseResult { extra, parameter, snr_db, chosen: d.best, verdict: d.verdict, removals: d.removals, seconds: t0.elapsed().as_secs_f64() })
+    Ok(ExtraCaseResult { extra, parameter, snr_db, chosen: d.best, verdict: d.verdict, removals: d.removals, history: Vec::new(), seconds: t0.elapsed().as_secs_f64() })
 }
 
 #[cfg(test)]
