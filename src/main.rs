@@ -698,7 +698,7 @@ fn run_batch(job_path: &Path, out: Option<&Path>, quiet: bool) -> Result<()> {
             }
             if let Some(l) = &i.model_loop {
                 for r in &l.history {
-                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}); applied: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
+                    eprintln!("twinscope: {} model loop round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}); then: {}", i.file, r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
                 }
                 eprintln!("twinscope: {} model loop verdict: {} → {}", i.file, l.verdict, l.history_csv);
             }
@@ -1083,7 +1083,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
             };
             // The range of the applied effect's strength, when the round's search made one for it.
             let range = r.strength_range.as_ref().filter(|sr| r.applied.and_then(compare::Param::main_of_effect) == Some(sr.parameter)).map(|sr| format!(", strength range {}", sr.text())).unwrap_or_default();
-            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}){pinned}{redo}, applied: {}{range}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
+            println!("  round {}: envelope NRMSE {:.1} %, objective {:.1} (floor {:.1}){pinned}{redo}, then: {}{range}", r.round, r.envelope_nrmse, r.objective, r.floor_objective, r.change_with_values("-"));
         }
     }
     if let Some(p) = json {
@@ -1204,15 +1204,9 @@ fn extra_confusion_cmd(preset: &str, effects: &[String], duration_s: f64, seed: 
 }
 
 /// An extra-effect loop in a table cell: each round's change (`r1: took out casing_modes
-/// (set aside: misalignment)`), then the last round's objective / floor and envelope NRMSE.
+/// before adding misalignment`), then the last round's objective / floor and envelope NRMSE.
 fn extra_loop_cell(history: &[twinscope::compare::diagnose::Round]) -> String {
-    let rounds: Vec<String> = history
-        .iter()
-        .map(|r| {
-            let aside = r.set_aside.map_or(String::new(), |k| format!(" (set aside: {})", k.name()));
-            format!("r{}: {}{aside}", r.round, r.change_with_values("nothing significant"))
-        })
-        .collect();
+    let rounds: Vec<String> = history.iter().map(|r| format!("r{}: {}", r.round, r.change_with_values("nothing significant"))).collect();
     let last = history.last().map_or("-".to_string(), |r| format!("{:.2} / {:.2} ({:.1})", r.objective, r.floor_objective, r.envelope_nrmse));
     format!("{}; {last}", rounds.join(", "))
 }

@@ -1784,8 +1784,18 @@ impl Round {
             (Some(b), Some(a)) if a == b => format!("{} {REFITTED}", b.name()),
             (Some(b), Some(a)) => format!("{} in place of {}", b.name(), a.name()),
             (Some(_), None) => self.applied_label().unwrap_or_default(),
-            _ => none.to_string(),
+            _ => self.taken_out_text().unwrap_or_else(|| none.to_string()),
         }
+    }
+
+    /// `took out casing_modes`, with `before adding misalignment` when the round set an
+    /// addition aside ([`Round::set_aside`]); None when the round took nothing out.
+    fn taken_out_text(&self) -> Option<String> {
+        let t = self.taken_out.as_ref()?;
+        Some(match self.set_aside {
+            Some(k) => format!("took out {} before adding {}", t.label, k.name()),
+            None => format!("took out {}", t.label),
+        })
     }
 
     /// The applied trial's name ([`EffectTrial::label`]): `a with c` for an effect applied
@@ -1802,7 +1812,7 @@ impl Round {
     /// `casing_modes (frequency_hz = 3.37e3) in place of sensor_response`.
     pub fn change_with_values(&self, none: &str) -> String {
         let Some(b) = self.applied else {
-            return self.taken_out.as_ref().map_or_else(|| none.to_string(), |t| format!("took out {}", t.label));
+            return self.taken_out_text().unwrap_or_else(|| none.to_string());
         };
         let values = effect_values_text(&self.applied_values);
         let name = self.applied_label().unwrap_or_default();
@@ -2884,6 +2894,27 @@ mod tests {
         assert_eq!(applied_effects(&h), vec![Misalignment, PathModulation]);
         assert_eq!(h[1].change("-"), "misalignment in place of unbalance");
         assert_eq!(h[3].change("-"), "-");
+    }
+
+    #[test]
+    fn applied_effects_drops_what_a_later_round_took_out_with_what_acts_through_it() {
+        use super::super::removal::{ModelPart, TakenOut};
+        use EffectKind::*;
+        let out = |k: EffectKind| Some(TakenOut { part: ModelPart::Effect(k), label: k.name().into(), explained: 0.9 });
+        // A load zone applied with its contact nonlinearity, then a misalignment; a round taking
+        // the load zone out takes the nonlinearity with it.
+        let mut h = vec![round(1, vec![], Some(NonlinearContact), None), round(2, vec![], Some(Misalignment), None), round(3, vec![], None, None)];
+        h[0].applied_with = Some(LoadZone);
+        h[2].taken_out = out(LoadZone);
+        assert_eq!(applied_effects(&h), vec![Misalignment]);
+        // Taking out the nonlinearity alone keeps the load zone; a fault taken out is no effect.
+        h[2].taken_out = out(NonlinearContact);
+        assert_eq!(applied_effects(&h), vec![LoadZone, Misalignment]);
+        assert_eq!(h[2].change("-"), "took out nonlinear_contact");
+        h[2].set_aside = Some(Unbalance);
+        assert_eq!(h[2].change_with_values("-"), "took out nonlinear_contact before adding unbalance");
+        h[2].taken_out = Some(TakenOut { part: ModelPart::Fault { bearing: "de".into() }, label: String::new(), explained: 0.9 });
+        assert_eq!(applied_effects(&h), vec![NonlinearContact, LoadZone, Misalignment]);
     }
 
     #[test]

@@ -752,6 +752,33 @@ mod tests {
     }
 
     #[test]
+    fn an_extra_effect_loop_reads_whether_the_effect_went_out_and_stayed_out() {
+        use super::super::removal::{ModelPart, TakenOut};
+        use EffectKind::*;
+        let out = |k: EffectKind| Some(TakenOut { part: ModelPart::Effect(k), label: k.name().into(), explained: 0.9 });
+        let mut r = ExtraCaseResult { extra: CasingModes, parameter: None, snr_db: 1.0, chosen: Some(Misalignment), verdict: String::new(), removals: vec![], history: vec![round(1, None, None), round(2, None, None)], seconds: 0.0 };
+        assert!(!r.extra_taken_out(), "nothing taken out");
+        // Taken out first, the misalignment set aside: out, nothing applied.
+        r.history[0].taken_out = out(CasingModes);
+        r.history[0].set_aside = Some(Misalignment);
+        assert!(r.extra_taken_out());
+        assert!(r.applied().is_empty());
+        // Added first, then taken out: out, the misalignment a false claim left applied.
+        r.history[0] = round(1, Some((Misalignment, Param::Misalignment2xN, 20.0)), None);
+        r.history[1].taken_out = out(CasingModes);
+        assert!(r.extra_taken_out());
+        assert_eq!(r.applied(), vec![Misalignment]);
+        // Another part taken out, or the effect put back after it went: not out.
+        r.history[1].taken_out = out(Misalignment);
+        assert!(!r.extra_taken_out());
+        assert!(r.applied().is_empty());
+        r.history[0] = round(1, None, None);
+        r.history[0].taken_out = out(CasingModes);
+        r.history[1] = round(2, Some((CasingModes, Param::CasingModeHz, 4500.0)), None);
+        assert!(!r.extra_taken_out());
+    }
+
+    #[test]
     fn final_values_are_the_last_calibration_s_except_for_what_the_last_round_applied() {
         use EffectKind::*;
         // Round 1 applies an unbalance, round 2 replaces it by a misalignment, round 3 (the

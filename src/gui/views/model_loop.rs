@@ -249,7 +249,7 @@ impl ModelLoopView {
             pu.points(Points::new("floor: the model against itself", PlotPoints::from(floor)).color(OBJECTIVE).shape(egui_plot::MarkerShape::Diamond).filled(false).radius(5.0));
         });
         egui::Grid::new("rounds-table").striped(true).num_columns(6).show(ui, |ui| {
-            for hdr in ["round", "envelope NRMSE", "objective", "floor", "effects on", "then added"] {
+            for hdr in ["round", "envelope NRMSE", "objective", "floor", "effects on", "then changed"] {
                 ui.weak(hdr);
             }
             ui.end_row();
