@@ -395,11 +395,12 @@ struct SearchArgs {
     /// does not have is otherwise hidden by the calibration. One calibration more per part
     #[arg(long)]
     removal_trials: bool,
-    /// With --removal-trials, in a loop: a round that reads a part contradicted takes it out
-    /// first and sets aside the addition its search chose (experimental, session 75). Without
-    /// it a contradicted part is taken out only in a round that adds nothing.
+    /// With --removal-trials, in a loop: a round that reads a part contradicted applies the
+    /// addition its search chose and takes the part out only in a round that adds nothing (the
+    /// order before session 75). By default the part is taken out first and the addition set
+    /// aside, so nothing is fitted around a part the measurement contradicts.
     #[arg(long, requires = "removal_trials")]
-    take_out_first: bool,
+    add_before_taking_out: bool,
     /// Do not start the best three stage-1 trials (those stage 2 re-fits) also from the
     /// uncalibrated values. By default they are (their effect scanned, then the plain trial's
     /// fit) and the better fit goes on to stage 2: for a calibration that moved a base
@@ -537,7 +538,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, removal_trials: self.removal_trials, take_out_first: self.take_out_first, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, removal_trials: self.removal_trials, take_out_first: !self.add_before_taking_out, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         if let Some(w) = self.domain_weights {

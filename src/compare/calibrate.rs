@@ -556,8 +556,11 @@ pub struct LoopOptions {
     /// contradicted and chooses an addition: on, the part is taken out and the addition set
     /// aside ([`crate::compare::diagnose::Round::set_aside`]), so nothing is fitted around a
     /// part the measurement contradicts; off, the addition is applied and a contradicted part
-    /// is taken out only in a round that adds nothing ([`crate::compare::diagnose::run_loop`];
-    /// docs/loop-notebook.md "Session 75"). Default: off.
+    /// is taken out only in a round that adds nothing ([`crate::compare::diagnose::run_loop`]).
+    /// Default: on since session 75, whose runs on session 74's extra-effect models (a wrong
+    /// casing mode or unbalance beside which the search chose a misalignment or a path
+    /// modulation) ended with the wrong part out and no false claim, where adding first left
+    /// the false claim applied (docs/loop-notebook.md "Session 75").
     pub take_out_first: bool,
     /// Sweeps of a polish after every full-range fit (the calibration, a trial that re-does
     /// the calibration with its effect, a start from the uncalibrated values unless
@@ -700,7 +703,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: true, coupled_refined_starts: default_coupled_refined_starts(), force_pair_grid: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, removal_trials: false, take_out_first: false, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: true, coupled_refined_starts: default_coupled_refined_starts(), force_pair_grid: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, removal_trials: false, take_out_first: true, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 

@@ -2196,9 +2196,10 @@ pub fn check_loop_rounds(n: usize) -> Result<(), super::CompareError> {
 /// removal trials contradict a part of its model ([`super::removal`]) takes out the most
 /// contradicted one, before any replacement, when a round is left: the next round starts from
 /// the round's uncalibrated machine without it (the model its removal trial calibrated),
-/// recorded as [`Round::taken_out`]. With [`LoopOptions::take_out_first`] a round that chose
-/// an addition does the same, the addition recorded as [`Round::set_aside`] and not applied. A kept replacement's diagnosis, made while judging it, has
-/// no removal trials.
+/// recorded as [`Round::taken_out`]. With [`LoopOptions::take_out_first`] (the default since
+/// session 75) a round that chose an addition does the same, the addition recorded as
+/// [`Round::set_aside`] and not applied. A kept replacement's diagnosis, made while judging
+/// it, has no removal trials.
 ///
 /// With [`LoopOptions::unbend_when_stuck`] the round's own diagnosis may be searched again
 /// unbent (see [`diagnose_with`]); the replacement and re-fit diagnoses of a stuck round are
