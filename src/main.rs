@@ -185,6 +185,7 @@ enum Command {
         hide: Vec<String>,
         /// Rounds of the loop for `--hide` cases (default: the number hidden + 2: one round per
         /// effect, one that may replace a wrongly applied effect, one to answer "nothing missing").
+        /// With `--extra`, each case runs as a loop of this many rounds (default 1: one search).
         #[arg(long, value_parser = parse_rounds)]
         rounds: Option<usize>,
         /// Control cases with nothing hidden.
