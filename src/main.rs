@@ -396,6 +396,14 @@ struct SearchArgs {
     /// does not have is otherwise hidden by the calibration. One calibration more per part
     #[arg(long)]
     removal_trials: bool,
+    /// With removal trials (--removal-trials, `confusion --extra`): calibrate each removal
+    /// trial's two models on K realisations (0, the default: on as many as they are judged
+    /// on, four). Judged on four held-out realisations either way. Experimental: 1 (the
+    /// round's own calibration, a quarter of the calibrations' cost) and 2 read CWRU 097's
+    /// absent fault "needed", where four read it contradicted (docs/loop-notebook.md
+    /// "Session 76").
+    #[arg(long, value_name = "K", default_value_t = LoopOptions::default().removal_fit_realisations as u16, value_parser = clap::value_parser!(u16).range(0..=twinscope::compare::MAX_REALISATIONS as i64))]
+    removal_fit_realisations: u16,
     /// With --removal-trials, in a loop: a round that reads a part contradicted applies the
     /// addition its search chose and takes the part out only in a round that adds nothing (the
     /// order before session 75). By default the part is taken out first and the addition set
@@ -539,7 +547,7 @@ impl SearchArgs {
     fn options(&self) -> LoopOptions {
         use twinscope::compare::DecisionRule;
         let decision_rule = if self.decision_rule == "scatter" { DecisionRule::Scatter } else { DecisionRule::FloorMargin };
-        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, removal_trials: self.removal_trials, take_out_first: !self.add_before_taking_out, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
+        let mut o = LoopOptions { unbend_pinned: !self.no_unbend, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: !self.no_refit_when_stuck, joint_trials: self.joint_trials, coupled_forces: !self.no_coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: !self.no_force_pair_grid, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: !self.no_scan_forces, unbend_when_stuck: !self.no_unbend_when_stuck, unbend_when_short: self.unbend_when_short, fine_force_scan: self.fine_force_scan, refit_effect_in_stage2: self.refit_effect_in_stage2, recalibrate_roll_off: self.recalibrate_roll_off, roll_off_two_starts: self.roll_off_two_starts, effect_must_work: !self.no_effect_must_work, strength_range: self.strength_range, removal_trials: self.removal_trials, take_out_first: !self.add_before_taking_out, removal_fit_realisations: self.removal_fit_realisations as usize, uncalibrated_start_top: !self.no_uncalibrated_start_top, fine_forces: !self.no_fine_forces, polish_sweeps: self.polish_sweeps as usize, polish_second_starts: self.polish_second_starts, decision_rule, floor_margin: self.floor_margin, fit_duration_s: self.fit_duration_s, realisations: self.realisations as usize, random_effect_realisations: self.random_effect_realisations as usize, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction as usize;
         o.compare.scf_one_normaliser = !self.scf_slice_normalisers;
         if let Some(w) = self.domain_weights {
@@ -1067,7 +1075,7 @@ fn diagnose_cmd(measured: &Path, machine: Option<&Path>, preset: Option<String>,
         );
     }
     if !last.removals.is_empty() {
-        println!("\nremoval trials (last round: each part of its starting model taken out and the rest calibrated again, both models judged on {} held-out realisations):", last.removals[0].realisations);
+        println!("\nremoval trials (last round: each part of its starting model taken out and the rest calibrated again on {} realisation{}, both models judged on {} held-out ones):", last.removals[0].fit_realisations, if last.removals[0].fit_realisations == 1 { "" } else { "s" }, last.removals[0].realisations);
         for r in &last.removals {
             println!("  {:<13} {}", r.reading.name(), r.summary);
         }

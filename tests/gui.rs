@@ -743,7 +743,7 @@ fn model_loop_lists_the_removal_trials_and_takes_out_a_contradicted_fault() {
     assert!(m.bearings[0].fault.is_some());
     {
         let fault = ModelPart::Fault { bearing: m.bearings[0].name.clone() };
-        let trial = |part: ModelPart, reading: RemovalReading, summary: &str| RemovalTrial { label: part.label(&m), part, objective_with: 31.65, objective_without: 29.02, envelope_nrmse_with: 21.0, envelope_nrmse_without: 19.6, floor_objective: 21.43, tie_width: 2.3, realisations: 4, explained: 0.26, reading, calibration: Fit::default(), summary: summary.into() };
+        let trial = |part: ModelPart, reading: RemovalReading, summary: &str| RemovalTrial { label: part.label(&m), part, objective_with: 31.65, objective_without: 29.02, envelope_nrmse_with: 21.0, envelope_nrmse_without: 19.6, floor_objective: 21.43, tie_width: 2.3, realisations: 4, fit_realisations: 4, explained: 0.26, reading, calibration: Fit::default(), summary: summary.into() };
         let removals = vec![
             trial(fault, RemovalReading::Contradicted, "the measurement does not support the inner-race fault of bearing de: ..."),
             trial(ModelPart::Effect(twinscope::model::EffectKind::NonlinearContact), RemovalReading::CannotTell, "the data cannot tell whether nonlinear_contact is there: ..."),

@@ -254,6 +254,10 @@ pub struct LoopSpec {
     /// With removal trials, a round that reads a part contradicted takes it out before adding
     /// what its search chose (`LoopOptions::take_out_first`). Default: the library's.
     pub take_out_first: bool,
+    /// With removal trials, the realisations each trial's two models are calibrated on, 0 to
+    /// 16 (`LoopOptions::removal_fit_realisations`; 0: as many as they are judged on).
+    /// Default: the library's.
+    pub removal_fit_realisations: usize,
     /// A scanned force's amplitude also gets a second grid inside the coarse grid's best cell,
     /// kept when its golden section ends lower (`LoopOptions::fine_force_scan`,
     /// experimental). Default: the library's (off).
@@ -319,6 +323,7 @@ impl Default for LoopSpec {
             strength_range: o.strength_range,
             removal_trials: o.removal_trials,
             take_out_first: o.take_out_first,
+            removal_fit_realisations: o.removal_fit_realisations,
             fine_force_scan: o.fine_force_scan,
             effect_must_work: o.effect_must_work,
             recalibrate_roll_off: o.recalibrate_roll_off,
@@ -343,7 +348,7 @@ impl LoopSpec {
     pub fn options(&self, chain: &Chain) -> Result<crate::compare::LoopOptions, String> {
         use crate::model::EffectKind;
         crate::compare::check_loop_rounds(self.rounds).map_err(|e| format!("`model_loop`: {e}"))?;
-        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: self.uncalibrated_start_top, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, strength_range: self.strength_range, removal_trials: self.removal_trials, take_out_first: self.take_out_first, fine_force_scan: self.fine_force_scan, effect_must_work: self.effect_must_work, recalibrate_roll_off: self.recalibrate_roll_off, joint_trials: self.joint_trials, coupled_forces: self.coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: self.force_pair_grid, ..Default::default() };
+        let mut o = crate::compare::LoopOptions { fit_duration_s: self.fit_duration_s, unbend_pinned: self.unbend_pinned, uncalibrated_start: self.uncalibrated_start, refit_when_stuck: self.refit_when_stuck, near_floor_rule: self.near_floor_rule, scan_force_amplitudes: self.scan_force_amplitudes, unbend_when_stuck: self.unbend_when_stuck, unbend_when_short: self.unbend_when_short, uncalibrated_start_top: self.uncalibrated_start_top, fine_forces: self.fine_forces, polish_sweeps: self.polish_sweeps, polish_second_starts: self.polish_second_starts, decision_rule: self.decision_rule, floor_margin: self.floor_margin, realisations: self.realisations, random_effect_realisations: self.random_effect_realisations, strength_range: self.strength_range, removal_trials: self.removal_trials, take_out_first: self.take_out_first, removal_fit_realisations: self.removal_fit_realisations, fine_force_scan: self.fine_force_scan, effect_must_work: self.effect_must_work, recalibrate_roll_off: self.recalibrate_roll_off, joint_trials: self.joint_trials, coupled_forces: self.coupled_forces, coupled_refined_starts: self.coupled_refined_starts, force_pair_grid: self.force_pair_grid, ..Default::default() };
         o.compare.path_correction_bands = self.path_correction_bands;
         o.compare.scf_one_normaliser = self.scf_one_normaliser;
         o.validate().map_err(|e| format!("`model_loop`: {e}"))?;
@@ -633,7 +638,7 @@ mod tests {
         }
         // Every search option the sample names with a value: a README line dropping its
         // "default" would otherwise pass silently.
-        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "uncalibrated_start_top", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts", "strength_range", "removal_trials", "take_out_first", "fine_force_scan", "effect_must_work", "recalibrate_roll_off", "joint_trials", "coupled_forces", "coupled_refined_starts", "force_pair_grid"] {
+        for key in ["rounds", "fit_duration_s", "unbend_pinned", "uncalibrated_start", "refit_when_stuck", "near_floor_rule", "floor_margin", "path_correction_bands", "realisations", "random_effect_realisations", "unbend_when_stuck", "unbend_when_short", "uncalibrated_start_top", "scan_force_amplitudes", "fine_forces", "polish_sweeps", "polish_second_starts", "strength_range", "removal_trials", "take_out_first", "removal_fit_realisations", "fine_force_scan", "effect_must_work", "recalibrate_roll_off", "joint_trials", "coupled_forces", "coupled_refined_starts", "force_pair_grid"] {
             assert!(checked.iter().any(|k| k == key), "README's [model_loop] sample states no default for `{key}`: {checked:?}");
         }
     }

@@ -562,6 +562,16 @@ pub struct LoopOptions {
     /// modulation) ended with the wrong part out and no false claim, where adding first left
     /// the false claim applied (docs/loop-notebook.md "Session 75").
     pub take_out_first: bool,
+    /// With [`LoopOptions::removal_trials`]: the realisations each removal trial calibrates
+    /// its two models on (the model with every part and the one without the part); they are
+    /// judged on [`crate::compare::removal::REMOVAL_REALISATIONS`] held-out ones whatever
+    /// this is. 0 (the default): as many as they are judged on (the form of session 73). 1 is
+    /// the round's own calibration, at about a quarter of the calibrations' cost, and was
+    /// refused: on CWRU's healthy record 097 the inner-race model without its fault (noise
+    /// only) is then fitted to its own realisation's scatter and the absent fault reads
+    /// "needed" (45.08 against 32.80; calibrated on four, contradicted: 29.02 against 31.65);
+    /// 2 reads it needed too (docs/loop-notebook.md "Session 76"). At most [`MAX_REALISATIONS`].
+    pub removal_fit_realisations: usize,
     /// Sweeps of a polish after every full-range fit (the calibration, a trial that re-does
     /// the calibration with its effect, a start from the uncalibrated values unless
     /// [`LoopOptions::polish_second_starts`] is off): each fitted
@@ -656,6 +666,9 @@ impl LoopOptions {
         if self.random_effect_realisations > MAX_REALISATIONS {
             return bad("random_effect_realisations", format!("{}: give 0 (off) to {MAX_REALISATIONS}", self.random_effect_realisations));
         }
+        if self.removal_fit_realisations > MAX_REALISATIONS {
+            return bad("removal_fit_realisations", format!("{}: give 0 (as many as judged) to {MAX_REALISATIONS}", self.removal_fit_realisations));
+        }
         super::check_path_correction_bands(self.compare.path_correction_bands)?;
         if !(self.weights.iter().all(|w| w.is_finite() && *w >= 0.0) && self.weights.iter().any(|w| *w > 0.0)) {
             return bad("weights", format!("{:?}: give finite non-negative weights, not all zero", self.weights));
@@ -703,7 +716,7 @@ pub enum DecisionRule {
 
 impl Default for LoopOptions {
     fn default() -> Self {
-        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: true, coupled_refined_starts: default_coupled_refined_starts(), force_pair_grid: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, removal_trials: false, take_out_first: true, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
+        Self { compare: CompareOptions { scf_one_normaliser: true, ..CompareOptions::default() }, fit_duration_s: 1.5, evaluations_per_parameter: 9, sweeps: 2, weights: [1.0, 0.5, 0.25], significance: 0.2, floor_margin: 0.15, candidates: Vec::new(), recalibrate_top: 3, refit_effects: Vec::new(), unbend_pinned: true, uncalibrated_start: false, refit_when_stuck: true, joint_trials: false, coupled_forces: true, coupled_refined_starts: default_coupled_refined_starts(), force_pair_grid: true, near_floor_rule: false, scan_force_amplitudes: true, unbend_when_stuck: true, unbend_when_short: false, uncalibrated_start_top: true, fine_forces: true, fine_force_scan: false, refit_effect_in_stage2: false, recalibrate_roll_off: false, roll_off_two_starts: false, effect_must_work: true, strength_range: false, removal_trials: false, take_out_first: true, removal_fit_realisations: 0, polish_sweeps: 4, polish_second_starts: false, decision_rule: DecisionRule::FloorMargin, realisations: 1, random_effect_realisations: 4 }
     }
 }
 
@@ -1620,7 +1633,7 @@ mod tests {
     #[test]
     fn loop_settings_outside_their_ranges_are_refused_by_name() {
         assert!(LoopOptions::default().validate().is_ok());
-        let edges = LoopOptions { fit_duration_s: 60.0, realisations: MAX_REALISATIONS, significance: 1.0, floor_margin: 0.0, weights: [0.0, 0.0, 1.0], polish_sweeps: MAX_POLISH_SWEEPS, ..Default::default() };
+        let edges = LoopOptions { fit_duration_s: 60.0, realisations: MAX_REALISATIONS, significance: 1.0, floor_margin: 0.0, weights: [0.0, 0.0, 1.0], polish_sweeps: MAX_POLISH_SWEEPS, removal_fit_realisations: MAX_REALISATIONS, ..Default::default() };
         assert!(edges.validate().is_ok());
         let mut bands = LoopOptions::default();
         bands.compare.path_correction_bands = super::super::MAX_PATH_CORRECTION_BANDS + 1;
@@ -1630,6 +1643,7 @@ mod tests {
             (LoopOptions { fit_duration_s: f64::NAN, ..Default::default() }, "fit_duration_s"),
             (LoopOptions { realisations: 0, ..Default::default() }, "realisations"),
             (LoopOptions { realisations: MAX_REALISATIONS + 1, ..Default::default() }, "realisations"),
+            (LoopOptions { removal_fit_realisations: MAX_REALISATIONS + 1, ..Default::default() }, "removal_fit_realisations"),
             (bands, "path_correction_bands"),
             (LoopOptions { weights: [0.0; 3], ..Default::default() }, "weights"),
             (LoopOptions { weights: [1.0, -0.5, 0.25], ..Default::default() }, "weights"),

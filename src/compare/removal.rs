@@ -11,13 +11,14 @@
 //! that is on but the measurement noise) is taken out, the model without it is calibrated
 //! exactly as the round's model was, and its objective is set against the calibrated one.
 //!
-//! Both models are calibrated and judged with [`REMOVAL_REALISATIONS`] realisations at least,
-//! on held-out ones, their mean's own scatter taken out of the error
+//! Both models are judged with [`REMOVAL_REALISATIONS`] realisations at least, on held-out
+//! ones, their mean's own scatter taken out of the error
 //! ([`crate::compare::DomainComparison::debiased_nrmse_percent`]): with one realisation an
 //! objective holds the model's own variance, and a model whose only vibration is its noise
 //! scatters more than one with a fault. On 097 the inner-race preset without its fault (noise
 //! only, no load zone) scored 51.5 against 38.6 with one realisation, and 29.3 against 32.6
-//! with four (docs/loop-notebook.md "Session 73").
+//! with four (docs/loop-notebook.md "Session 73"). They are calibrated on as many, or on
+//! [`LoopOptions::removal_fit_realisations`] (docs/loop-notebook.md "Session 76").
 //!
 //! The reading uses the diagnosis's yardsticks: the tie width 2√2 σ of the larger seed scatter
 //! σ of the two calibrated models, within which [`super::diagnose::decide`] calls two trials
@@ -159,8 +160,12 @@ pub struct RemovalTrial {
     pub floor_objective: f64,
     /// The tie width 2√2 σ, σ the larger seed scatter of the two calibrated models' objectives.
     pub tie_width: f64,
-    /// Realisations both models were calibrated and judged with.
+    /// Realisations both models were judged with.
     pub realisations: usize,
+    /// Realisations both models were calibrated on ([`LoopOptions::removal_fit_realisations`];
+    /// 0 in answers written before session 76, where they were `realisations`).
+    #[serde(default)]
+    pub fit_realisations: usize,
     /// `(objective_with − objective_without) / (objective_with − floor)`: the share of the
     /// error above the seed floor that taking the part out removes (negative: it adds error).
     pub explained: f64,
@@ -207,9 +212,25 @@ pub fn silent_model_words((model_rms, measured_rms): (f64, f64), unit: &str) -> 
     format!("the model holds no vibration but its noise (rms {model_rms:.1e} {unit} without its noise, against the measurement's {measured_rms:.2e} {unit})")
 }
 
+/// The options a removal trial calibrates its models with: `opts` (the judging options,
+/// [`removal_options`]) on [`LoopOptions::removal_fit_realisations`] realisations, or on as
+/// many as they are judged on when that is 0.
+pub fn removal_fit_options(opts: &LoopOptions) -> LoopOptions {
+    match opts.removal_fit_realisations {
+        0 => opts.clone(),
+        k => LoopOptions { realisations: k, ..opts.clone() },
+    }
+}
+
+/// Whether [`calibrated_and_judged`] evaluates the calibrated model on its own seed with the
+/// judging options: for its floor, or because its fit's objective was not taken on them.
+fn evaluates_own_seed(opts: &LoopOptions, with_floor: bool) -> bool {
+    with_floor || removal_fit_options(opts).realisations != opts.realisations
+}
+
 /// Model evaluations of [`calibrated_and_judged`] of `m`, with its floor or without.
 fn judged_evaluations(m: &Machine, opts: &LoopOptions, with_floor: bool) -> usize {
-    calibrate_round_evaluations(m, opts) + 1 + SCATTER_SEEDS.len() + if with_floor { 1 + FLOOR_SEEDS.len() } else { 0 }
+    calibrate_round_evaluations(m, &removal_fit_options(opts)) + 1 + SCATTER_SEEDS.len() + usize::from(evaluates_own_seed(opts, with_floor)) + if with_floor { FLOOR_SEEDS.len() } else { 0 }
 }
 
 /// Model evaluations [`removal_trials`] makes on the round's starting model `m` with the
@@ -230,21 +251,34 @@ struct Judged {
 }
 
 /// `m` calibrated as a round's model is ([`calibrate_round`] over
-/// [`calibration_parameters_for`]), then judged on held-out realisations
-/// ([`HELD_OUT_SALT`]), with its seed scatter and, `with_floor`, its seed floor.
+/// [`calibration_parameters_for`], on [`removal_fit_options`]' realisations), then judged
+/// with `opts` on held-out realisations ([`HELD_OUT_SALT`]), with its seed scatter (its own
+/// seed's objective taken with `opts` too) and, `with_floor`, its seed floor.
 fn calibrated_and_judged(m: &Machine, reference: &Reference, opts: &LoopOptions, with_floor: bool, progress: &LoopProgress) -> Result<Judged, LoopError> {
-    let params = calibration_parameters_for(m, opts);
-    let (fm, fit) = calibrate_round(m, reference, &params, opts, progress)?;
+    let fit_opts = removal_fit_options(opts);
+    let params = calibration_parameters_for(m, &fit_opts);
+    let (fm, fit) = calibrate_round(m, reference, &params, &fit_opts, progress)?;
     let (held_out, _) = evaluate(&reseeded(&fm, HELD_OUT_SALT), reference, opts)?;
     progress.tick();
-    let scatter = objective_scatter(&fm, reference, fit.objective_after, opts)?;
+    let own = if evaluates_own_seed(opts, with_floor) {
+        let (own, _) = evaluate(&fm, reference, opts)?;
+        progress.tick();
+        Some(own)
+    } else {
+        None
+    };
+    // The fit's own objective when it was taken on the judging realisations (the form of
+    // session 73, unchanged); else the own seed's on them, so that the scatter is of one kind.
+    let own_objective = match &own {
+        Some(c) if fit_opts.realisations != opts.realisations => objective(c, &opts.weights),
+        _ => fit.objective_after,
+    };
+    let scatter = objective_scatter(&fm, reference, own_objective, opts)?;
     for _ in SCATTER_SEEDS {
         progress.tick();
     }
-    let floor = if with_floor {
-        let (own, _) = evaluate(&fm, reference, opts)?;
-        progress.tick();
-        let (floor, _) = seed_floor(&fm, reference.measured(), &own, opts)?;
+    let floor = if let (true, Some(own)) = (with_floor, &own) {
+        let (floor, _) = seed_floor(&fm, reference.measured(), own, opts)?;
         for _ in FLOOR_SEEDS {
             progress.tick();
         }
@@ -333,7 +367,7 @@ pub fn removal_trials(m: &Machine, reference: &Reference, opts: &LoopOptions, si
                 RemovalReading::Needed => format!("{label} is needed: calibrated without it the objective rises from {j0:.2} to {j:.2} (tie width ±{tie:.2}; envelope NRMSE {env0:.1} → {env:.1} %)"),
                 RemovalReading::CannotTell => format!("the data cannot tell whether {label} is there: calibrated without it the objective is {j:.2} against {j0:.2} (tie width ±{tie:.2}, floor {floor:.2}; envelope NRMSE {env0:.1} → {env:.1} %)"),
             };
-            RemovalTrial { part, label, objective_with: j0, objective_without: j, envelope_nrmse_with: env0, envelope_nrmse_without: env, floor_objective: floor, tie_width: tie, realisations: opts.realisations, explained, reading, calibration: w.fit, summary }
+            RemovalTrial { part, label, objective_with: j0, objective_without: j, envelope_nrmse_with: env0, envelope_nrmse_without: env, floor_objective: floor, tie_width: tie, realisations: opts.realisations, fit_realisations: removal_fit_options(opts).realisations, explained, reading, calibration: w.fit, summary }
         })
         .collect())
 }
@@ -360,7 +394,7 @@ impl RemovalTrial {
 fn not_judged(part: ModelPart, m: &Machine, why: &str, opts: &LoopOptions) -> RemovalTrial {
     let label = part.label(m);
     let summary = format!("the data cannot tell whether {label} is there: {why}");
-    RemovalTrial { part, label, objective_with: f64::NAN, objective_without: f64::NAN, envelope_nrmse_with: f64::NAN, envelope_nrmse_without: f64::NAN, floor_objective: f64::NAN, tie_width: f64::NAN, realisations: opts.realisations, explained: f64::NAN, reading: RemovalReading::CannotTell, calibration: Fit::default(), summary }
+    RemovalTrial { part, label, objective_with: f64::NAN, objective_without: f64::NAN, envelope_nrmse_with: f64::NAN, envelope_nrmse_without: f64::NAN, floor_objective: f64::NAN, tie_width: f64::NAN, realisations: opts.realisations, fit_realisations: removal_fit_options(opts).realisations, explained: f64::NAN, reading: RemovalReading::CannotTell, calibration: Fit::default(), summary }
 }
 
 /// A part a loop round took out ([`crate::compare::run_loop`] with
@@ -392,7 +426,7 @@ mod tests {
 
     #[test]
     fn a_trial_in_a_table_cell_names_its_part_reading_and_share() {
-        let trial = |part: ModelPart, reading: RemovalReading, objective_without: f64, explained: f64| RemovalTrial { label: String::new(), part, objective_with: 31.65, objective_without, envelope_nrmse_with: 1.0, envelope_nrmse_without: 1.0, floor_objective: 21.43, tie_width: 2.3, realisations: 4, explained, reading, calibration: Fit::default(), summary: String::new() };
+        let trial = |part: ModelPart, reading: RemovalReading, objective_without: f64, explained: f64| RemovalTrial { label: String::new(), part, objective_with: 31.65, objective_without, envelope_nrmse_with: 1.0, envelope_nrmse_without: 1.0, floor_objective: 21.43, tie_width: 2.3, realisations: 4, fit_realisations: 4, explained, reading, calibration: Fit::default(), summary: String::new() };
         assert_eq!(trial(ModelPart::Fault { bearing: "de".into() }, RemovalReading::Needed, 35.1, -0.338).cell(), "fault of de: needed (31.65 → 35.10)");
         assert_eq!(trial(ModelPart::Effect(EffectKind::LoadZone), RemovalReading::Contradicted, 29.02, 0.2574).cell(), "load_zone: contradicted (31.65 → 29.02, 26 %)");
         assert_eq!(trial(ModelPart::Effect(EffectKind::GearMesh), RemovalReading::CannotTell, f64::NAN, f64::NAN).cell(), "gear_mesh: cannot tell (not judged)");
