@@ -239,6 +239,17 @@ fn a_loop_takes_a_contradicted_casing_mode_out_before_adding_a_misalignment() {
     assert!(twinscope::compare::diagnose::applied_effects(&history).is_empty());
 }
 
+/// The healthy 6205 preset with noise on, and the same machine with the inner-race preset's
+/// fault: the two sides of the removal trials' tests.
+fn healthy_and_faulted_6205() -> (model::Machine, model::Machine) {
+    let mut healthy = model::preset("cwru_6205_healthy").unwrap();
+    healthy.effects.enable(EffectKind::Noise);
+    let mut faulted = healthy.clone();
+    faulted.bearings[0].fault = model::preset("cwru_6205_inner").unwrap().bearings[0].fault.clone();
+    assert!(faulted.bearings[0].fault.is_some() && healthy.bearings[0].fault.is_none());
+    (healthy, faulted)
+}
+
 /// Removal trials, the converse of the search (`LoopOptions::removal_trials`): a model
 /// holding an inner-race fault that the "measurement" lacks (the healthy 6205 with its load
 /// zone, another seed) reads the fault contradicted; the same model against a measurement that
@@ -248,11 +259,7 @@ fn a_loop_takes_a_contradicted_casing_mode_out_before_adding_a_misalignment() {
 #[test]
 fn removal_trials_contradict_a_fault_the_measurement_lacks_and_need_one_it_has() {
     use twinscope::compare::removal::{ModelPart, RemovalReading, REMOVAL_REALISATIONS};
-    let mut healthy = model::preset("cwru_6205_healthy").unwrap();
-    healthy.effects.enable(EffectKind::Noise);
-    let mut faulted = healthy.clone();
-    faulted.bearings[0].fault = model::preset("cwru_6205_inner").unwrap().bearings[0].fault.clone();
-    assert!(faulted.bearings[0].fault.is_some() && healthy.bearings[0].fault.is_none());
+    let (healthy, faulted) = healthy_and_faulted_6205();
     let (_, _, mut opts) = quick_case(0, vec![EffectKind::Slip]);
     opts.removal_trials = true;
     let reading = |d: &twinscope::compare::Diagnosis, part: &ModelPart| d.removals.iter().find(|r| &r.part == part).map(|r| r.reading);
@@ -310,10 +317,7 @@ fn removal_trials_contradict_a_fault_the_measurement_lacks_and_need_one_it_has()
 #[test]
 fn removal_trials_can_be_calibrated_on_fewer_realisations_than_judged() {
     use twinscope::compare::removal::{ModelPart, RemovalReading, REMOVAL_REALISATIONS};
-    let mut healthy = model::preset("cwru_6205_healthy").unwrap();
-    healthy.effects.enable(EffectKind::Noise);
-    let mut faulted = healthy.clone();
-    faulted.bearings[0].fault = model::preset("cwru_6205_inner").unwrap().bearings[0].fault.clone();
+    let (healthy, faulted) = healthy_and_faulted_6205();
     let (_, _, mut opts) = quick_case(0, vec![EffectKind::Slip]);
     opts.removal_trials = true;
     let fault = ModelPart::Fault { bearing: faulted.bearings[0].name.clone() };
@@ -352,8 +356,7 @@ fn a_silent_model_has_no_part_to_judge() {
     let reference = Reference::new(&measured, &opts.compare).unwrap();
     let (model_rms, measured_rms) = silent(&m, &reference, &opts).unwrap().expect("silent");
     assert!(model_rms < 1e-12 && measured_rms > 1e-3, "{model_rms:e} against {measured_rms:e}");
-    let mut healthy = model::preset("cwru_6205_healthy").unwrap();
-    healthy.effects.enable(EffectKind::Noise);
+    let (healthy, _) = healthy_and_faulted_6205();
     assert_eq!(silent(&healthy, &reference, &opts).unwrap(), None);
     let (d, calls, expected) = diagnose_counting(&m, &measured, &opts);
     assert_eq!(d.removals.len(), 1, "its contact nonlinearity");
